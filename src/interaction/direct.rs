@@ -1,0 +1,1 @@
+//! Direct mode: MIDI notes become contact messages without a body.

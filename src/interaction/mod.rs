@@ -1,0 +1,8 @@
+//! The one interface between body and sound: contact messages as OSC (DESIGN.md section 6),
+//! and the direct mode that makes them from MIDI notes.
+
+pub mod direct;
+pub mod message;
+pub mod transport;
+
+pub use message::{decode, encode, ContactMessage, Limb, Message, MessageError};

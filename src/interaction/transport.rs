@@ -1,0 +1,1 @@
+//! Carrying encoded messages: an in-process channel, or UDP to a sound process elsewhere.

@@ -1,0 +1,139 @@
+//! The kit: where each piece is (for the body) and how it sounds (for the synthesizer).
+//! Raw TOML (serde) is validated once into [`Kit`]; errors name the file, the key and the range.
+
+mod raw;
+
+use std::path::{Path, PathBuf};
+
+pub use raw::DEFAULT_KIT_TOML;
+
+/// How a piece vibrates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PieceKind {
+    /// Ideal circular membrane, fixed edge: modes at the zeros of J_m.
+    Membrane,
+    /// Circular plate with a free edge: dense inharmonic modes (Chladni's law).
+    Plate,
+}
+
+/// Snare wires: collision noise driven by the head's excursion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Wires {
+    pub gap_m: f32,
+    pub gain: f32,
+    pub decay_s: f32,
+    pub center_hz: f32,
+    pub q: f32,
+}
+
+/// One validated kit piece.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Piece {
+    pub id: String,
+    pub kind: PieceKind,
+    pub position_m: [f32; 3],
+    /// Unit outward normal of the playing surface.
+    pub normal: [f32; 3],
+    pub radius_m: f32,
+    /// Frequency of the lowest mode.
+    pub fundamental_hz: f32,
+    /// T60 of the lowest mode, seconds.
+    pub decay_s: f32,
+    /// Decay rate of mode k scales as (f_k / f_0)^damping_exponent.
+    pub damping_exponent: f32,
+    pub areal_density_kg_m2: f32,
+    pub max_hz: f32,
+    pub max_modes: usize,
+    /// Plates: f ~ (m + 2n)^chladni_exponent.
+    pub chladni_exponent: f32,
+    /// Hertz contact F = k c^alpha for hardness 1.0.
+    pub hertz_k: f32,
+    pub hertz_alpha: f32,
+    pub gain_db: f32,
+    pub wires: Option<Wires>,
+    /// Hi-hat: how much faster every mode decays when fully closed (None: not a hi-hat).
+    pub closed_damping_factor: Option<f32>,
+    /// How much faster modes decay while a hand holds the cymbal.
+    pub choke_damping_factor: f32,
+}
+
+/// Zone radii as fractions of a piece's radius.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Zones {
+    pub center: f32,
+    pub head: f32,
+    pub rim: f32,
+    pub cross_stick: f32,
+    pub bow: f32,
+    pub edge: f32,
+    pub bell: f32,
+    pub pedal: f32,
+}
+
+/// How MIDI velocity becomes striking speed, and the striking masses.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StrikeSettings {
+    pub speed_min_mps: f32,
+    pub speed_max_mps: f32,
+    pub velocity_exponent: f32,
+    pub stick_mass_kg: f32,
+    pub beater_mass_kg: f32,
+    pub hihat_foot_mass_kg: f32,
+}
+
+impl StrikeSettings {
+    /// Striking speed for a MIDI velocity 1..=127.
+    pub fn speed_for_velocity(&self, velocity: u8) -> f32 {
+        let v = (velocity.clamp(1, 127) as f32) / 127.0;
+        self.speed_min_mps + (self.speed_max_mps - self.speed_min_mps) * v.powf(self.velocity_exponent)
+    }
+}
+
+/// A validated kit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Kit {
+    pub name: String,
+    pub pieces: Vec<Piece>,
+    pub zones: Zones,
+    pub strike: StrikeSettings,
+}
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum KitError {
+    #[error("kit config {path}: cannot read: {source}")]
+    Read { path: PathBuf, source: std::io::Error },
+    #[error("kit config {path}: {message}")]
+    Parse { path: PathBuf, message: String },
+    #[error("kit config {path}: {key}: {message}")]
+    Invalid { path: PathBuf, key: String, message: String },
+}
+
+impl Kit {
+    /// The built-in default kit (config/kits/default.toml, compiled in).
+    pub fn builtin_default() -> Kit {
+        Kit::from_toml_str(DEFAULT_KIT_TOML, Path::new("config/kits/default.toml"))
+            .expect("the built-in kit config is valid (tested)")
+    }
+
+    /// Load and validate a kit file.
+    pub fn load(path: &Path) -> Result<Kit, KitError> {
+        let text =
+            std::fs::read_to_string(path).map_err(|source| KitError::Read { path: path.to_path_buf(), source })?;
+        Kit::from_toml_str(&text, path)
+    }
+
+    /// Parse and validate kit TOML; `path` is only used in error messages.
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Kit, KitError> {
+        raw::parse(text, path)
+    }
+
+    /// Index of the piece with this id.
+    pub fn index_of(&self, id: &str) -> Option<usize> {
+        self.pieces.iter().position(|p| p.id == id)
+    }
+
+    pub fn piece(&self, id: &str) -> Option<&Piece> {
+        self.pieces.iter().find(|p| p.id == id)
+    }
+}

@@ -1,0 +1,12 @@
+//! drumsim: drum MIDI in, a physically simulated drummer and modal synthesis out.
+//!
+//! Data flows one way: MIDI -> (motion -> physics) -> contact messages -> sound.
+//! The sound engine and the body meet only through the contact message of
+//! [`interaction::message`]. See ARCHITECTURE.md for the map of the crate.
+
+pub mod interaction;
+pub mod kit;
+pub mod live;
+pub mod midi;
+pub mod render;
+pub mod sound;

@@ -1,0 +1,128 @@
+//! drumsim command line. Parses arguments and maps errors to exit codes; nothing else.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "drumsim", version, about = "A physically simulated drummer: drum MIDI in, sound and motion out")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SoundMode {
+    /// Strikes made by the simulated body (not built yet: use direct).
+    Physical,
+    /// Strikes made straight from MIDI notes.
+    Direct,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a MIDI file to DIR/SONG.wav and DIR/SONG.contacts.json.
+    Render {
+        song: PathBuf,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        #[arg(long, value_enum, default_value_t = SoundMode::Direct)]
+        sound: SoundMode,
+        /// Kit config file (default: the built-in kit, config/kits/default.toml).
+        #[arg(long)]
+        kit: Option<PathBuf>,
+        /// Note map: gm, roland-td, yamaha-dtx, or a file.
+        #[arg(long, default_value = "gm")]
+        map: String,
+        /// Drum channel 1..=16 (default: the map's, 10 for General MIDI).
+        #[arg(long)]
+        channel: Option<u8>,
+        /// Skip notes the map does not know instead of failing.
+        #[arg(long)]
+        skip_unknown: bool,
+    },
+    /// Play a live MIDI input (e-kit, keyboard) through the speakers.
+    Live {
+        #[arg(long)]
+        midi: Option<String>,
+        #[arg(long)]
+        audio: Option<String>,
+        #[arg(long, default_value_t = 0.0)]
+        lookahead_ms: f32,
+        #[arg(long, value_enum, default_value_t = SoundMode::Direct)]
+        sound: SoundMode,
+        #[arg(long)]
+        kit: Option<PathBuf>,
+        #[arg(long, default_value = "gm")]
+        map: String,
+        #[arg(long)]
+        channel: Option<u8>,
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration_s: Option<f64>,
+    },
+    /// List MIDI inputs and audio outputs.
+    Devices,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("drumsim: {err:#}");
+            ExitCode::from(exit_code(&err))
+        }
+    }
+}
+
+/// 2 for bad input (a file, a config, a value the user can fix), 1 for anything else.
+fn exit_code(err: &anyhow::Error) -> u8 {
+    let bad_input = err.chain().any(|e| {
+        e.is::<drumsim::midi::MidiError>()
+            || e.is::<drumsim::midi::MapError>()
+            || e.is::<drumsim::kit::KitError>()
+            || e.is::<drumsim::render::RenderInputError>()
+    });
+    if bad_input {
+        2
+    } else {
+        1
+    }
+}
+
+fn physical_not_built() -> anyhow::Error {
+    anyhow::Error::new(drumsim::render::RenderInputError::Unsupported(
+        "--sound physical needs the simulated body, which is not built yet; use --sound direct".into(),
+    ))
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render { song, out, sound, kit, map, channel, skip_unknown } => {
+            if matches!(sound, SoundMode::Physical) {
+                return Err(physical_not_built());
+            }
+            let opts = drumsim::render::RenderOptions { out_dir: out, kit, map, channel, skip_unknown, progress: true };
+            let report = drumsim::render::render_file(&song, &opts)?;
+            eprintln!("{report}");
+            Ok(())
+        }
+        Command::Live { midi, audio, lookahead_ms, sound, kit, map, channel, duration_s } => {
+            if matches!(sound, SoundMode::Physical) {
+                return Err(physical_not_built());
+            }
+            let opts = drumsim::live::LiveOptions {
+                midi_port: midi,
+                audio_device: audio,
+                lookahead_ms,
+                kit,
+                map,
+                channel,
+                duration_s,
+            };
+            drumsim::live::run(&opts)
+        }
+        Command::Devices => drumsim::live::list_devices(),
+    }
+}

@@ -1,0 +1,1 @@
+//! Live MIDI input (midir).
