@@ -5,6 +5,7 @@
 //!   order (track 0 first, then each track in its own order).
 //! - Type 2 (sequential patterns): the tracks are played one after the other, each starting
 //!   where the previous one ended; a tempo set in one pattern carries on into the next.
+//!   Ticks count from the start of the first pattern.
 //! - Metrical timing uses the full tempo map (120 BPM until the first tempo event); SMPTE
 //!   (timecode) timing ignores tempo events. 29 fps means 29.97 (drop-frame).
 //! - A tempo of 0 or faster than 1000 BPM is an error ([`MidiError::Tempo`]), not clamped.
@@ -337,7 +338,7 @@ impl Clock {
         match self.division {
             Division::Timecode { ticks_per_s } => tick as f64 / ticks_per_s,
             Division::Metrical { ticks_per_beat } => {
-                let beats = (tick - self.seg_tick) as f64 / f64::from(ticks_per_beat);
+                let beats = tick.saturating_sub(self.seg_tick) as f64 / f64::from(ticks_per_beat);
                 self.seg_s + beats * f64::from(self.us_per_beat) * 1e-6
             }
         }

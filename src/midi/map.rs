@@ -182,7 +182,8 @@ impl NoteMap {
         Some(map)
     }
 
-    /// A built-in map's name, else a map file's path.
+    /// A built-in map's name, else a map file's path (a built-in name wins: write `./gm` for a
+    /// file named gm).
     pub fn load(name_or_path: &str) -> Result<NoteMap, MapError> {
         if let Some(map) = NoteMap::builtin(name_or_path) {
             return Ok(map);
