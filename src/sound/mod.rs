@@ -3,6 +3,7 @@
 
 pub mod engine;
 pub mod event;
+pub mod output;
 
 pub use engine::{Engine, EngineSettings};
 pub use event::{SoundEvent, SoundEventKind, Strike};
