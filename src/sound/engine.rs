@@ -1,6 +1,11 @@
-//! The sound engine: one modal resonator per kit piece, events applied sample-accurately.
+//! The sound engine: one voice per kit piece, events applied at their exact sample, a stereo
+//! mix placed by each piece's position, and the master limiter. `process` never allocates,
+//! locks or blocks: everything is sized in `new`.
 
-use super::SoundEvent;
+use super::bank::{Lane, LANES};
+use super::limiter::Limiter;
+use super::voice::Voice;
+use super::{SoundEvent, SoundEventKind};
 use crate::kit::Kit;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -18,30 +23,151 @@ impl Default for EngineSettings {
     }
 }
 
+/// Limiter ceiling: -0.5 dBFS.
+pub const CEILING: f32 = 0.944;
+
 pub struct Engine {
+    voices: Vec<Voice>,
+    pans: Vec<(f32, f32)>,
+    /// Pending events, latest first (so the next one pops from the end).
+    queue: Vec<SoundEvent>,
     time: u64,
+    max_block: usize,
+    mono: Vec<f32>,
+    acc: Vec<Lane>,
+    limiter: Limiter,
+    dropped: u64,
 }
 
 impl Engine {
-    pub fn new(_kit: &Kit, _settings: EngineSettings) -> Engine {
-        Engine { time: 0 }
+    pub fn new(kit: &Kit, settings: EngineSettings) -> Engine {
+        let max_block = settings.max_block.max(1);
+        let voices: Vec<Voice> = kit.pieces.iter().map(|p| Voice::new(p, settings.sample_rate_hz, max_block)).collect();
+        // Drummer's view: pieces to the drummer's right sound on the right.
+        let pans = kit
+            .pieces
+            .iter()
+            .map(|p| {
+                let pan = (p.position_m[0] / 0.7).clamp(-1.0, 1.0);
+                let angle = (pan + 1.0) * std::f32::consts::FRAC_PI_4;
+                (angle.cos(), angle.sin())
+            })
+            .collect();
+        Engine {
+            voices,
+            pans,
+            queue: Vec::with_capacity(settings.event_capacity.max(1)),
+            time: 0,
+            max_block,
+            mono: vec![0.0; max_block],
+            acc: vec![[0.0; LANES]; max_block],
+            limiter: Limiter::new(settings.sample_rate_hz, CEILING, 0.0015, 0.08),
+            dropped: 0,
+        }
     }
+
     /// The sample index the next `process` call starts at.
     pub fn sample_time(&self) -> u64 {
         self.time
     }
+
     /// Queue an event; false if the queue is full (the event is dropped and counted).
-    pub fn push(&mut self, _ev: SoundEvent) -> bool {
+    /// Events in the past are applied at the start of the next block.
+    pub fn push(&mut self, ev: SoundEvent) -> bool {
+        if self.queue.len() == self.queue.capacity() {
+            self.dropped += 1;
+            return false;
+        }
+        // Latest first; equal times keep arrival order (the earlier arrival pops first).
+        let at = self.queue.partition_point(|e| e.at_sample > ev.at_sample);
+        self.queue.insert(at, ev);
         true
     }
-    /// Render `left.len()` samples (left and right have equal length).
-    pub fn process(&mut self, left: &mut [f32], right: &mut [f32]) {
-        left.fill(0.0);
-        right.fill(0.0);
-        self.time += left.len() as u64;
+
+    /// Events dropped because the queue was full.
+    pub fn dropped_events(&self) -> u64 {
+        self.dropped
     }
+
     /// Samples by which the output trails the events (the limiter's look-ahead).
     pub fn latency_samples(&self) -> usize {
-        0
+        self.limiter.latency()
+    }
+
+    /// Samples the limiter found not finite (and silenced).
+    pub fn non_finite_samples(&self) -> u64 {
+        self.limiter.non_finite
+    }
+
+    pub fn voice(&self, piece: usize) -> &Voice {
+        &self.voices[piece]
+    }
+
+    /// Render `left.len()` samples (left and right have equal length).
+    pub fn process(&mut self, left: &mut [f32], right: &mut [f32]) {
+        assert_eq!(left.len(), right.len(), "left and right buffers differ in length");
+        for (l, r) in left.chunks_mut(self.max_block).zip(right.chunks_mut(self.max_block)) {
+            self.process_block(l, r);
+        }
+    }
+
+    fn process_block(&mut self, left: &mut [f32], right: &mut [f32]) {
+        let n = left.len();
+        left.fill(0.0);
+        right.fill(0.0);
+        let start = self.time;
+        let mut pos = 0;
+        while pos < n {
+            while let Some(ev) = self.queue.last() {
+                if ev.at_sample > start + pos as u64 {
+                    break;
+                }
+                let ev = self.queue.pop().expect("queue has a last event");
+                self.apply(&ev);
+            }
+            let next = match self.queue.last() {
+                Some(ev) => ((ev.at_sample - start) as usize).min(n),
+                None => n,
+            };
+            self.mix(&mut left[pos..next], &mut right[pos..next]);
+            pos = next;
+        }
+        self.limiter.process(left, right);
+        self.time += n as u64;
+    }
+
+    fn apply(&mut self, ev: &SoundEvent) {
+        match ev.kind {
+            SoundEventKind::Strike(s) => {
+                if let Some(v) = self.voices.get_mut(s.piece) {
+                    v.strike(&s);
+                }
+            }
+            SoundEventKind::HiHat { openness } => {
+                for v in self.voices.iter_mut().filter(|v| v.is_hihat()) {
+                    v.set_openness(openness);
+                }
+            }
+            SoundEventKind::Choke { piece } => {
+                if let Some(v) = self.voices.get_mut(piece) {
+                    v.choke();
+                }
+            }
+        }
+    }
+
+    fn mix(&mut self, left: &mut [f32], right: &mut [f32]) {
+        let n = left.len();
+        for (voice, &(gl, gr)) in self.voices.iter_mut().zip(self.pans.iter()) {
+            if voice.is_silent() {
+                continue;
+            }
+            let mono = &mut self.mono[..n];
+            voice.render(mono, &mut self.acc);
+            for ((l, r), m) in left.iter_mut().zip(right.iter_mut()).zip(mono.iter()) {
+                *l += gl * m;
+                *r += gr * m;
+            }
+        }
     }
 }

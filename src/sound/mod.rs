@@ -1,9 +1,16 @@
 //! Sound: modal membranes and plates excited by a Hertz contact, a limiter, WAV and audio out.
 //! This module knows nothing of rapier or MIDI: strikes arrive as contact messages.
 
+pub mod bank;
+pub mod bessel;
+pub mod contact;
 pub mod engine;
 pub mod event;
+pub mod limiter;
+pub mod modes;
 pub mod output;
+pub mod voice;
+pub mod wires;
 
 pub use engine::{Engine, EngineSettings};
 pub use event::{SoundEvent, SoundEventKind, Strike};

@@ -1,0 +1,201 @@
+//! The modes of a kit piece: frequencies, damping, modal masses and mode shapes.
+//!
+//! Membranes (fixed edge): mode (m, n) has shape J_m(j_mn r/a) cos(m theta) (and a sin twin for
+//! m > 0) and frequency f0 j_mn / j_01, the ideal membrane's Bessel-zero ratios.
+//! Plates (free edge, cymbals): shapes J_m(j'_mn r/a) cos(m theta) with j'_mn the zeros of J_m'
+//! (antinode at the free edge), frequencies by Chladni's law f ~ (m + 2n)^p with n nodal circles,
+//! detuned by a few percent per mode (a hammered cymbal is not a perfect plate).
+//! Damping: decay rate sigma_k = (ln 1000 / T60) (f_k / f_0)^exponent, rising with frequency.
+
+use super::bessel::{bessel_j, zeros_where, ZeroKind};
+use crate::kit::{Piece, PieceKind};
+use std::f64::consts::{LN_10, PI};
+
+/// One modal oscillator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mode {
+    /// Nodal diameters.
+    pub m: usize,
+    /// Nodal circles (interior).
+    pub n: usize,
+    /// The sin twin of a degenerate pair (shape uses sin(m theta) instead of cos).
+    pub sin: bool,
+    /// Radial wavenumber: shape J_m(zero * r / a).
+    pub zero: f64,
+    pub freq_hz: f64,
+    /// Decay rate (1/s) with no choke or hi-hat closing.
+    pub sigma: f64,
+    /// Modal mass, kg (areal density times the integral of the squared shape).
+    pub mass_kg: f64,
+    /// Gain from modal displacement (m) to output, including the pickup and radiation.
+    pub out_gain: f64,
+}
+
+/// The modes of one piece, lowest frequency first.
+#[derive(Debug, Clone)]
+pub struct ModeSet {
+    pub modes: Vec<Mode>,
+    pub radius_m: f64,
+    pub kind: PieceKind,
+}
+
+/// Where the sound is picked up: a point over the surface (fraction of radius, angle).
+const PICKUP_RHO: f64 = 0.68;
+const PICKUP_THETA: f64 = 0.93;
+/// Output scale from modal velocity (m/s) to full scale. Light heads move far and radiate
+/// little; heavy plates move little and radiate much: one constant per kind puts a full-velocity
+/// stroke near full scale, and each piece's `gain_db` sets the mix.
+pub const MEMBRANE_OUTPUT_SCALE: f64 = 0.012;
+pub const PLATE_OUTPUT_SCALE: f64 = 0.32;
+
+impl ModeSet {
+    pub fn for_piece(piece: &Piece) -> ModeSet {
+        let mut modes = match piece.kind {
+            PieceKind::Membrane => membrane_modes(piece),
+            PieceKind::Plate => plate_modes(piece),
+        };
+        let scale = match piece.kind {
+            PieceKind::Membrane => MEMBRANE_OUTPUT_SCALE,
+            PieceKind::Plate => PLATE_OUTPUT_SCALE,
+        };
+        let level = 10f64.powf(piece.gain_db as f64 / 20.0) * scale;
+        for mode in &mut modes {
+            let radiation = 1.0 / (1.0 + 0.5 * mode.m as f64);
+            let pickup = shape(mode, PICKUP_RHO, PICKUP_THETA);
+            mode.out_gain *= level * radiation * pickup * 2.0 * PI * mode.freq_hz;
+        }
+        ModeSet { modes, radius_m: piece.radius_m as f64, kind: piece.kind }
+    }
+
+    /// Mode shape of mode `k` at the point (x, y) metres from the centre; 0 outside the surface.
+    pub fn shape_at(&self, k: usize, x_m: f64, y_m: f64) -> f64 {
+        let rho = (x_m * x_m + y_m * y_m).sqrt() / self.radius_m;
+        if rho > 1.0 {
+            return 0.0;
+        }
+        shape(&self.modes[k], rho, y_m.atan2(x_m))
+    }
+}
+
+/// Mode shape at (rho = r / a, theta).
+pub fn shape(mode: &Mode, rho: f64, theta: f64) -> f64 {
+    let radial = bessel_j(mode.m, mode.zero * rho);
+    let angular = if mode.m == 0 {
+        1.0
+    } else if mode.sin {
+        (mode.m as f64 * theta).sin()
+    } else {
+        (mode.m as f64 * theta).cos()
+    };
+    radial * angular
+}
+
+fn decay_rate(piece: &Piece, freq_hz: f64) -> f64 {
+    let sigma0 = 3.0 * LN_10 / piece.decay_s as f64;
+    sigma0 * (freq_hz / piece.fundamental_hz as f64).powf(piece.damping_exponent as f64)
+}
+
+/// Push a mode, or its cos and sin twins for m > 0, until `max` oscillators.
+fn push_twins(out: &mut Vec<Mode>, mode: Mode, max: usize) {
+    for sin in [false, true] {
+        if out.len() < max && (!sin || mode.m > 0) {
+            out.push(Mode { sin, ..mode });
+        }
+    }
+}
+
+fn membrane_modes(piece: &Piece) -> Vec<Mode> {
+    const J01: f64 = 2.404_825_557_695_773;
+    let max = piece.max_modes;
+    let j_by_hz = J01 * piece.max_hz as f64 / piece.fundamental_hz as f64;
+    // Weyl's law: about j^2 / 4 oscillators below j; search a little beyond what max needs.
+    let j_max = j_by_hz.min((4.0 * max as f64).sqrt() * 1.25 + 6.0);
+    let mut found = zeros_where(ZeroKind::Value, j_max as usize + 1, j_max, |_, _| true);
+    found.sort_by(|a, b| a.2.total_cmp(&b.2));
+    let mut modes = Vec::new();
+    let (rho_s, a) = (piece.areal_density_kg_m2 as f64, piece.radius_m as f64);
+    for (m, n, j) in found {
+        let freq_hz = piece.fundamental_hz as f64 * j / J01;
+        let angular = if m == 0 { 2.0 * PI } else { PI };
+        let mass_kg = rho_s * a * a * angular * 0.5 * bessel_j(m + 1, j).powi(2);
+        let mode =
+            Mode { m, n, sin: false, zero: j, freq_hz, sigma: decay_rate(piece, freq_hz), mass_kg, out_gain: 1.0 };
+        push_twins(&mut modes, mode, max);
+    }
+    modes
+}
+
+/// Deterministic detuning in [-1, 1) for mode (m, n): a hash, so renders are reproducible.
+fn detune(m: usize, n: usize) -> f64 {
+    let mut h = (m as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (n as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F);
+    h ^= h >> 29;
+    h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    h ^= h >> 32;
+    (h % 20_000) as f64 / 10_000.0 - 1.0
+}
+
+fn plate_modes(piece: &Piece) -> Vec<Mode> {
+    const DETUNE: f64 = 0.03;
+    let (f1, p) = (piece.fundamental_hz as f64, piece.chladni_exponent as f64);
+    let freq = |m: usize, n: usize| f1 * ((m + 2 * n) as f64 / 2.0).powf(p) * (1.0 + DETUNE * detune(m, n));
+    // Every (m, n) of a free plate below max_hz (m + 2n >= 2; (1, 0) is a rigid tilt).
+    let mut all: Vec<(usize, usize, f64)> = Vec::new();
+    let k_max = (2.0 * (piece.max_hz as f64 / f1).powf(1.0 / p) + 1.0) as usize;
+    for k in 2..=k_max {
+        for n in 0..=k / 2 {
+            let m = k - 2 * n;
+            if m == 1 && n == 0 {
+                continue;
+            }
+            let f = freq(m, n);
+            if f <= piece.max_hz as f64 {
+                all.push((m, n, f));
+            }
+        }
+    }
+    all.sort_by(|a, b| a.2.total_cmp(&b.2));
+    // Oscillators: twins count twice. Keep every `stride`-th mode so the band stays covered,
+    // and let each kept mode stand for the energy of those dropped beside it.
+    let oscillators: usize = all.iter().map(|&(m, _, _)| if m > 0 { 2 } else { 1 }).sum();
+    let stride = oscillators.div_ceil(piece.max_modes).max(1);
+    let kept: Vec<_> = all.into_iter().step_by(stride).collect();
+    let m_max = kept.iter().map(|k| k.0).max().unwrap_or(0);
+    let n_max = kept.iter().map(|k| k.1).max().unwrap_or(0);
+    // Radial wavenumber of n nodal circles: the (n+1)-th positive zero of J_m' (for m = 0 the
+    // trivial zero at 0 is not counted, so the n-th).
+    let x_max = m_max as f64 + PI * (n_max as f64 + 2.0) + 4.0;
+    let want = |m: usize, i: usize| kept.iter().any(|&(km, kn, _)| km == m && zero_index(km, kn) == i);
+    let zs = zeros_where(ZeroKind::Slope, m_max, x_max, want);
+    let (rho_s, a) = (piece.areal_density_kg_m2 as f64, piece.radius_m as f64);
+    let mut modes = Vec::new();
+    for (m, n, freq_hz) in kept {
+        let Some(&(_, _, zero)) = zs.iter().find(|z| z.0 == m && z.1 == zero_index(m, n)) else {
+            continue;
+        };
+        let angular = if m == 0 { 2.0 * PI } else { PI };
+        let radial = 0.5 * (1.0 - (m * m) as f64 / (zero * zero)) * bessel_j(m, zero).powi(2);
+        let mass_kg = rho_s * a * a * angular * radial;
+        let mode = Mode {
+            m,
+            n,
+            sin: false,
+            zero,
+            freq_hz,
+            sigma: decay_rate(piece, freq_hz),
+            mass_kg,
+            out_gain: (stride as f64).sqrt(),
+        };
+        push_twins(&mut modes, mode, usize::MAX);
+    }
+    modes.truncate(piece.max_modes);
+    modes
+}
+
+/// Index among the positive zeros of J_m' of the shape with n nodal circles.
+fn zero_index(m: usize, n: usize) -> usize {
+    if m == 0 {
+        n - 1
+    } else {
+        n
+    }
+}

@@ -1,0 +1,227 @@
+//! One kit piece as an instrument: its modes in a resonator bank, the Hertz contact that
+//! excites them, snare wires, and the damping that a closing hi-hat or a grabbing hand adds.
+//! A piece is one physical object, so a new strike acts on whatever already rings.
+
+use super::bank::{Bank, Lane, LANES};
+use super::contact::{run_contact, ContactReport, ContactScratch, ModalState, StrikeInput, MAX_CONTACT_S};
+use super::modes::ModeSet;
+use super::wires::WireRattle;
+use super::Strike;
+use crate::kit::Piece;
+use std::f64::consts::PI;
+
+/// Per-mode values that depend on the current damping: [cos(wd T), sin(wd T), e^(-sigma T), wd, sigma].
+type Discrete = [f64; 5];
+
+#[derive(Debug, Clone)]
+pub struct Voice {
+    pub modes: ModeSet,
+    bank: Bank,
+    sample_rate_hz: f64,
+    gains: Vec<f32>,
+    centre_weights: Vec<f32>,
+    discrete: Vec<Discrete>,
+    sigma: Vec<f64>,
+    q: Vec<f64>,
+    p: Vec<f64>,
+    scratch: ContactScratch,
+    /// Output of the contact now under way, sample by sample, and how far it has been played.
+    pending_out: Vec<f32>,
+    pending_centre: Vec<f32>,
+    pending_len: usize,
+    pending_pos: usize,
+    /// A strike that arrived while the previous contact was still under way.
+    deferred: Option<Strike>,
+    centre_buf: Vec<f32>,
+    hertz_k: f64,
+    hertz_alpha: f64,
+    wires: Option<WireRattle>,
+    closed_damping_factor: Option<f64>,
+    choke_damping_factor: f64,
+    openness_factor: f64,
+    damping_factor: f64,
+    choked: bool,
+    /// What the last contact did (for tests and reports).
+    pub last_contact: ContactReport,
+}
+
+impl Voice {
+    pub fn new(piece: &Piece, sample_rate_hz: f32, max_block: usize) -> Voice {
+        let modes = ModeSet::for_piece(piece);
+        let n = modes.modes.len();
+        let gains: Vec<f32> = modes.modes.iter().map(|m| m.out_gain as f32).collect();
+        // Displacement at the centre: only axisymmetric modes move it (J_m(0) = 0 for m > 0).
+        let centre_weights: Vec<f32> = modes.modes.iter().map(|m| if m.m == 0 { 1.0 } else { 0.0 }).collect();
+        let bank = Bank::new(&gains, &centre_weights[..n.min(LANES)]);
+        let contact_cap = (MAX_CONTACT_S * sample_rate_hz as f64).ceil() as usize + 1;
+        let mut voice = Voice {
+            bank,
+            sample_rate_hz: sample_rate_hz as f64,
+            gains,
+            centre_weights,
+            discrete: vec![[0.0; 5]; n],
+            sigma: vec![0.0; n],
+            q: vec![0.0; n],
+            p: vec![0.0; n],
+            scratch: ContactScratch::new(n),
+            pending_out: vec![0.0; contact_cap],
+            pending_centre: vec![0.0; contact_cap],
+            pending_len: 0,
+            pending_pos: 0,
+            deferred: None,
+            centre_buf: vec![0.0; max_block],
+            hertz_k: piece.hertz_k as f64,
+            hertz_alpha: piece.hertz_alpha as f64,
+            wires: piece.wires.as_ref().map(|w| WireRattle::new(w, sample_rate_hz)),
+            closed_damping_factor: piece.closed_damping_factor.map(f64::from),
+            choke_damping_factor: piece.choke_damping_factor as f64,
+            openness_factor: 1.0,
+            damping_factor: f64::NAN,
+            choked: false,
+            last_contact: ContactReport::default(),
+            modes,
+        };
+        voice.set_damping_factor(1.0);
+        voice
+    }
+
+    pub fn is_hihat(&self) -> bool {
+        self.closed_damping_factor.is_some()
+    }
+
+    /// True when nothing rings: rendering would add only zeros.
+    pub fn is_silent(&self) -> bool {
+        self.bank.is_silent()
+            && self.pending_pos >= self.pending_len
+            && !self.wires.as_ref().is_some_and(|w| w.is_ringing())
+    }
+
+    /// Number of modes.
+    pub fn modes(&self) -> usize {
+        self.bank.modes()
+    }
+
+    /// Every mode decays `factor` times faster than its own rate.
+    fn set_damping_factor(&mut self, factor: f64) {
+        if factor == self.damping_factor {
+            return;
+        }
+        self.damping_factor = factor;
+        let t = 1.0 / self.sample_rate_hz;
+        for (k, mode) in self.modes.modes.iter().enumerate() {
+            let w0 = 2.0 * PI * mode.freq_hz;
+            let sigma = (mode.sigma * factor).min(0.95 * w0);
+            let wd = (w0 * w0 - sigma * sigma).sqrt();
+            let (s, c) = (wd * t).sin_cos();
+            let e = (-sigma * t).exp();
+            self.discrete[k] = [c, s, e, wd, sigma];
+            self.sigma[k] = sigma;
+            self.bank.set_coefficients(k, (2.0 * e * c) as f32, (e * e) as f32);
+        }
+    }
+
+    fn update_damping(&mut self) {
+        let f = if self.choked { self.choke_damping_factor.max(self.openness_factor) } else { self.openness_factor };
+        self.set_damping_factor(f);
+    }
+
+    /// Hi-hat openness, 0 closed .. 1 open (ignored by pieces that are not a hi-hat).
+    pub fn set_openness(&mut self, openness: f32) {
+        if let Some(closed) = self.closed_damping_factor {
+            self.openness_factor = closed.powf(1.0 - openness.clamp(0.0, 1.0) as f64);
+            self.update_damping();
+        }
+    }
+
+    /// A hand grabs the piece: it rings out fast until it is struck again.
+    pub fn choke(&mut self) {
+        self.choked = true;
+        self.update_damping();
+    }
+
+    /// Strike now (at the next sample to be rendered).
+    pub fn strike(&mut self, s: &Strike) {
+        if !(s.speed_mps.is_finite()
+            && s.speed_mps > 0.0
+            && s.mass_kg.is_finite()
+            && s.x_m.is_finite()
+            && s.y_m.is_finite())
+        {
+            return;
+        }
+        if self.pending_pos < self.pending_len {
+            self.deferred = Some(*s);
+            return;
+        }
+        self.choked = false;
+        self.update_damping();
+        // Bank state (y[n-1], y[n-2]) -> displacement and velocity at the last sample.
+        for k in 0..self.q.len() {
+            let (y1, y2) = self.bank.state(k);
+            let [c, s_, e, wd, sigma] = self.discrete[k];
+            let (y1, y2) = (y1 as f64, y2 as f64);
+            let b = (y1 * c - y2 * e) / s_;
+            self.q[k] = y1;
+            self.p[k] = wd * b - sigma * y1;
+        }
+        let input = StrikeInput {
+            speed_mps: s.speed_mps as f64,
+            mass_kg: (s.mass_kg as f64).clamp(1e-3, 5.0),
+            x_m: s.x_m as f64,
+            y_m: s.y_m as f64,
+            k: self.hertz_k * (s.hardness as f64).clamp(0.02, 2.0),
+            alpha: self.hertz_alpha,
+        };
+        let state = ModalState { q: &mut self.q, p: &mut self.p, sigma: &self.sigma };
+        let (written, report) = run_contact(
+            &self.modes,
+            state,
+            &input,
+            self.sample_rate_hz,
+            &mut self.scratch,
+            &self.gains,
+            &self.centre_weights,
+            &mut self.pending_out,
+            &mut self.pending_centre,
+        );
+        self.last_contact = report;
+        self.pending_len = written;
+        self.pending_pos = 0;
+        // Back to the bank: (q, q') at the last contact sample -> (y[n-1], y[n-2]).
+        for k in 0..self.q.len() {
+            let [c, s_, e, wd, sigma] = self.discrete[k];
+            let (q, p) = (self.q[k], self.p[k]);
+            let b = (p + sigma * q) / wd;
+            self.bank.set_state(k, q as f32, ((q * c - b * s_) / e) as f32);
+        }
+    }
+
+    /// Write the next `out.len()` samples (at most the engine's max block) into `out`.
+    pub fn render(&mut self, out: &mut [f32], acc: &mut [Lane]) {
+        let n = out.len();
+        out.fill(0.0);
+        let mut i = 0;
+        while i < n {
+            if self.pending_pos < self.pending_len {
+                let take = (n - i).min(self.pending_len - self.pending_pos);
+                let range = self.pending_pos..self.pending_pos + take;
+                out[i..i + take].copy_from_slice(&self.pending_out[range.clone()]);
+                self.centre_buf[i..i + take].copy_from_slice(&self.pending_centre[range]);
+                self.pending_pos += take;
+                i += take;
+                if self.pending_pos >= self.pending_len {
+                    if let Some(s) = self.deferred.take() {
+                        self.strike(&s);
+                    }
+                }
+            } else {
+                let centre = self.wires.is_some().then(|| &mut self.centre_buf[i..n]);
+                self.bank.process(&mut out[i..n], centre, acc);
+                i = n;
+            }
+        }
+        if let Some(wires) = &mut self.wires {
+            wires.process(&self.centre_buf[..n], out);
+        }
+    }
+}
