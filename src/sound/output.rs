@@ -421,3 +421,103 @@ impl AudioOutput {
         self.errors.try_recv().ok()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::interaction::{encode, ContactMessage, Limb};
+    use crate::sound::Strike;
+
+    const FS: f64 = 48_000.0;
+
+    fn snare(kit: &Kit) -> SoundEventKind {
+        let piece = kit.index_of("snare").unwrap();
+        SoundEventKind::Strike(Strike { piece, speed_mps: 4.0, mass_kg: 0.03, x_m: 0.03, y_m: 0.0, hardness: 1.0 })
+    }
+
+    fn renderer(kit: &Kit, max_block: usize, channels: usize) -> (Renderer, Producer<TimedEvent>) {
+        let (tx, rx) = rtrb::RingBuffer::new(8);
+        let settings = OutputSettings { max_block, ..Default::default() };
+        let engine = Engine::new(kit, EngineSettings { sample_rate_hz: FS as f32, max_block, event_capacity: 8 });
+        (Renderer::new(engine, rx, channels, FS, &settings, Arc::default()), tx)
+    }
+
+    #[test]
+    fn arrival_maps_to_a_sample_never_before_the_block() {
+        let t0 = Instant::now();
+        let ms = Duration::from_millis;
+        assert_eq!(sample_for(t0, ms(0), t0 + ms(3), 1000, FS), 1000, "late events play at the block start");
+        assert_eq!(sample_for(t0 + ms(2), ms(0), t0, 1000, FS), 1096);
+        assert_eq!(sample_for(t0, ms(10), t0 + ms(4), 1000, FS), 1288, "lookahead 10 ms, 4 ms into it");
+    }
+
+    #[test]
+    fn interleaving_serves_any_channel_count() {
+        let (l, r) = ([1.0, 2.0], [3.0, 4.0]);
+        let mut mono = [9.0; 2];
+        interleave(&l, &r, &mut mono, 1);
+        assert_eq!(mono, [2.0, 3.0]);
+        let mut quad = [9.0; 9]; // two frames of four, and a stray sample
+        interleave(&l, &r, &mut quad, 4);
+        assert_eq!(quad, [1.0, 3.0, 0.0, 0.0, 2.0, 4.0, 0.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn a_strike_sounds_at_its_arrival_sample_through_chunked_blocks() {
+        let kit = Kit::builtin_default();
+        let (mut r, mut tx) = renderer(&kit, 64, 2);
+        let mut out = vec![1.0; 2 * 300]; // longer than max_block: rendered in chunks
+        r.render(&mut out, Instant::now());
+        assert_eq!(r.engine.sample_time(), 300);
+        assert!(out.iter().all(|&s| s == 0.0), "silence before any event");
+        let block = Instant::now();
+        tx.push(TimedEvent { arrival: block + Duration::from_millis(2), kind: snare(&kit) }).unwrap();
+        let mut out = vec![0.0; 2 * 512];
+        r.render(&mut out, block);
+        let first = out.iter().position(|s| s.abs() > 1e-6).expect("the strike sounds") / 2;
+        let expected = 96 + r.engine.latency_samples();
+        assert!((expected..expected + 48).contains(&first), "first sound at frame {first}, expected {expected}");
+        assert_eq!(r.stats.dropped_events.load(Relaxed), 0);
+    }
+
+    #[test]
+    fn shared_clock_is_exact_and_estimated_clock_keeps_the_earliest_epoch() {
+        let t0 = Instant::now();
+        let ms = Duration::from_millis;
+        assert_eq!(PerformanceClock::Epoch(t0).arrival(1.5, t0 + ms(9000)), t0 + ms(1500));
+        let mut clock = PerformanceClock::Estimated(None);
+        assert_eq!(clock.arrival(1.0, t0 + ms(1010)), t0 + ms(1010), "first message: 10 ms transit assumed 0");
+        assert_eq!(clock.arrival(2.0, t0 + ms(2002)), t0 + ms(2002), "a faster message moves the epoch back");
+        assert_eq!(clock.arrival(3.0, t0 + ms(3050)), t0 + ms(3002), "a slow one does not");
+        assert_eq!(clock.arrival(f32::NAN, t0), PerformanceClock::Estimated(Some(t0 + ms(2))).arrival(0.0, t0));
+    }
+
+    #[test]
+    fn feed_resolves_pieces_and_counts_bad_messages() {
+        let kit = Kit::builtin_default();
+        let (tx, mut rx) = rtrb::RingBuffer::new(4);
+        let t0 = Instant::now();
+        let mut feed = EventFeed::new(kit.clone(), FS as f32, PerformanceClock::Epoch(t0), tx);
+        let mut msg = ContactMessage {
+            piece: "snare".into(),
+            time_s: 0.25,
+            speed_mps: 4.0,
+            mass_kg: 0.03,
+            x_m: 0.03,
+            y_m: 0.0,
+            impulse_ns: 0.0,
+            hardness: 1.0,
+            limb: Limb::LeftHand,
+        };
+        let mut buf = Vec::new();
+        encode(&Message::Contact(msg.clone()), &mut buf).unwrap();
+        feed.feed(&buf).unwrap();
+        assert_eq!(rx.pop().unwrap(), TimedEvent { arrival: t0 + Duration::from_millis(250), kind: snare(&kit) });
+        msg.piece = "cowbell".into();
+        encode(&Message::Contact(msg), &mut buf).unwrap();
+        assert!(feed.feed(&buf).unwrap_err().contains("cowbell"));
+        assert!(feed.feed(b"not osc").is_err());
+        assert_eq!(feed.stats.bad_messages.load(Relaxed), 2);
+        assert!(rx.pop().is_err());
+    }
+}
