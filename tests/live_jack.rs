@@ -271,12 +271,15 @@ fn every_note_sounds_within_two_periods() {
     let x = &player.recorded;
     assert!(onset(x, 0, FIRST_NOTE as usize).is_none(), "sound before the first note");
     let mut latencies_ms = Vec::new();
+    let mut per_note = String::new();
     for (i, &t) in frames.iter().enumerate() {
         let next = frames.get(i + 1).copied().unwrap_or(total) as usize;
         let Some(at) = onset(x, t as usize, next) else {
             panic!("note {i} ({:?}) at frame {t} made no sound before frame {next}", NOTES[i]);
         };
-        latencies_ms.push((at as f64 - t as f64) * 1000.0 / RATE as f64);
+        let ms = (at as f64 - t as f64) * 1000.0 / RATE as f64;
+        per_note += &format!(" {}:{ms:.1}", NOTES[i].0);
+        latencies_ms.push(ms);
     }
     latencies_ms.sort_by(f64::total_cmp);
     let mean = latencies_ms.iter().sum::<f64>() / latencies_ms.len() as f64;
@@ -285,6 +288,7 @@ fn every_note_sounds_within_two_periods() {
         "MIDI-to-sound latency over {} notes: mean {mean:.2} ms, median {median:.2} ms, max {max:.2} ms",
         NOTES.len()
     );
+    println!("per note (note:ms):{per_note}");
     // A note reaches drumsim in the period it was sent and sounds in the next one: at most two
     // periods (10.7 ms) plus the engine's look-ahead; 40 ms leaves room for a loaded machine.
     assert!(max < 40.0, "latencies (ms): {latencies_ms:?}");
