@@ -36,7 +36,8 @@ impl JackServer {
     fn start() -> JackServer {
         static COUNT: AtomicUsize = AtomicUsize::new(0);
         let name = format!("drumsim-test-{}-{}", std::process::id(), COUNT.fetch_add(1, Ordering::Relaxed));
-        let log = std::fs::File::create(format!("{}/{name}.log", env!("CARGO_TARGET_TMPDIR"))).unwrap();
+        let log_path = format!("{}/{name}.log", env!("CARGO_TARGET_TMPDIR"));
+        let log = std::fs::File::create(&log_path).unwrap();
         let child = Command::new("jackd")
             .args(["-n", &name, "--no-realtime", "-d", "dummy", "-r", &RATE.to_string(), "-p", &PERIOD.to_string()])
             .stdout(log.try_clone().unwrap())
@@ -48,7 +49,16 @@ impl JackServer {
         let mut server = JackServer { name, child };
         let start = Instant::now();
         while Client::new("probe", ClientOptions::NO_START_SERVER).is_err() {
-            assert!(server.child.try_wait().unwrap().is_none(), "jackd {} exited; see its log", server.name);
+            if server.child.try_wait().unwrap().is_some() {
+                let log = std::fs::read_to_string(&log_path).unwrap_or_default();
+                let hint = if log.contains("Too many servers") {
+                    "\nJACK's server registry is full of servers that were killed outright; with no jackd \
+                     running, remove /dev/shm/jack-shm-registry and /dev/shm/jack_*"
+                } else {
+                    ""
+                };
+                panic!("jackd {} exited:\n{log}{hint}", server.name);
+            }
             assert!(start.elapsed() < Duration::from_secs(15), "jackd {} does not accept clients", server.name);
             thread::sleep(Duration::from_millis(50));
         }
@@ -57,7 +67,15 @@ impl JackServer {
 }
 
 impl Drop for JackServer {
+    /// SIGTERM first: a jackd that is killed outright keeps its slot in JACK's server registry
+    /// (/dev/shm/jack-shm-registry, 8 slots), and a later jackd then fails with "Too many
+    /// servers already active".
     fn drop(&mut self) {
+        let _ = Command::new("kill").args(["-TERM", &self.child.id().to_string()]).status();
+        let start = Instant::now();
+        while self.child.try_wait().ok().flatten().is_none() && start.elapsed() < Duration::from_secs(5) {
+            thread::sleep(Duration::from_millis(20));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
@@ -232,6 +250,18 @@ fn onset(x: &[f32], from: usize, to: usize) -> Option<usize> {
     (end.saturating_sub(W).max(from)..end).find(|&n| x[n] * x[n] > threshold / W as f32).or(Some(end - 1))
 }
 
+fn save_wav(path: &std::path::Path, x: &[f32]) {
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate: RATE as u32,
+        bits_per_sample: 32,
+        sample_format: hound::SampleFormat::Float,
+    };
+    let mut w = hound::WavWriter::create(path, spec).unwrap();
+    x.iter().for_each(|&s| w.write_sample(s).unwrap());
+    w.finalize().unwrap();
+}
+
 #[test]
 fn every_note_sounds_within_two_periods() {
     let _turn = one_at_a_time();
@@ -269,6 +299,9 @@ fn every_note_sounds_within_two_periods() {
     assert!(drumsim.stderr().contains(&format!("{} MIDI events", 2 * NOTES.len())), "{}", drumsim.stderr());
 
     let x = &player.recorded;
+    if let Some(path) = std::env::var_os("DRUMSIM_LIVE_WAV") {
+        save_wav(path.as_ref(), x); // what the test heard, to look at when it fails
+    }
     assert!(onset(x, 0, FIRST_NOTE as usize).is_none(), "sound before the first note");
     let mut latencies_ms = Vec::new();
     let mut per_note = String::new();
@@ -289,8 +322,11 @@ fn every_note_sounds_within_two_periods() {
         NOTES.len()
     );
     println!("per note (note:ms):{per_note}");
-    // A note reaches drumsim in the period it was sent and sounds in the next one: at most two
-    // periods (10.7 ms) plus the engine's look-ahead; 40 ms leaves room for a loaded machine.
+    // A note reaches drumsim in the period it was sent and starts sounding in the next one,
+    // after the engine's limiter look-ahead (1.5 ms): at most 5.3 + 1.5 ms for a cymbal, plus
+    // a few ms of attack for a drum head. Half the notes within two periods; all within 40 ms
+    // even on a loaded machine that misses a cycle or two.
+    assert!(median < 2.0 * 1000.0 * PERIOD as f64 / RATE as f64 + 1.5, "latencies (ms): {latencies_ms:?}");
     assert!(max < 40.0, "latencies (ms): {latencies_ms:?}");
 }
 
