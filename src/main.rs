@@ -83,6 +83,7 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::midi::MapError>()
             || e.is::<drumsim::kit::KitError>()
             || e.is::<drumsim::render::RenderInputError>()
+            || e.is::<drumsim::sound::event::UnknownPiece>()
     });
     if bad_input {
         2

@@ -25,7 +25,13 @@ pub struct Bank {
     /// Weights of the first chunk's modes in the displacement at the centre (for snare wires).
     centre: Lane,
     modes: usize,
+    /// Samples rendered so far: chunks may fall asleep only at multiples of [`SLEEP_CHECK`],
+    /// so the output does not depend on how the caller splits it into blocks.
+    clock: u64,
 }
+
+/// Samples between checks for chunks that have decayed to silence.
+pub const SLEEP_CHECK: u64 = 128;
 
 impl Bank {
     /// A silent bank of `gains.len()` modes with output gains `gains` and centre weights.
@@ -48,6 +54,7 @@ impl Bank {
             active: vec![false; chunks],
             centre,
             modes: gains.len(),
+            clock: 0,
         }
     }
 
@@ -84,7 +91,25 @@ impl Bank {
     /// Add the next `out.len()` samples of every ringing mode into `out`; if `centre` is given,
     /// also write the centre displacement of the first chunk into it. `acc` is scratch of at
     /// least `out.len()` lanes.
-    pub fn process(&mut self, out: &mut [f32], centre: Option<&mut [f32]>, acc: &mut [Lane]) {
+    pub fn process(&mut self, out: &mut [f32], mut centre: Option<&mut [f32]>, acc: &mut [Lane]) {
+        let mut i = 0;
+        while i < out.len() {
+            let to_check = (SLEEP_CHECK - self.clock % SLEEP_CHECK) as usize;
+            let end = out.len().min(i + to_check);
+            self.process_segment(&mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]), acc);
+            self.clock += (end - i) as u64;
+            if self.clock % SLEEP_CHECK == 0 {
+                for c in 0..self.active.len() {
+                    if self.active[c] {
+                        self.sleep_if_silent(c);
+                    }
+                }
+            }
+            i = end;
+        }
+    }
+
+    fn process_segment(&mut self, out: &mut [f32], centre: Option<&mut [f32]>, acc: &mut [Lane]) {
         let n = out.len();
         let acc = &mut acc[..n];
         acc.fill([0.0; LANES]);
@@ -114,7 +139,6 @@ impl Bank {
             }
             self.y1[c] = y1;
             self.y2[c] = y2;
-            self.sleep_if_silent(c);
         }
         for (o, a) in out.iter_mut().zip(acc.iter()) {
             *o += a.iter().sum::<f32>();
@@ -138,7 +162,6 @@ impl Bank {
         }
         self.y1[0] = y1;
         self.y2[0] = y2;
-        self.sleep_if_silent(0);
     }
 
     fn sleep_if_silent(&mut self, c: usize) {
@@ -191,5 +214,6 @@ mod tests {
         let mut out = vec![0.0; 512];
         bank.process(&mut out, None, &mut acc);
         assert!(bank.is_silent());
+        assert!(out[SLEEP_CHECK as usize * 3..].iter().all(|v| *v == 0.0));
     }
 }

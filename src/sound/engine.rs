@@ -99,6 +99,11 @@ impl Engine {
         self.limiter.non_finite
     }
 
+    /// True when no event is pending and nothing rings.
+    pub fn is_silent(&self) -> bool {
+        self.queue.is_empty() && self.voices.iter().all(|v| v.is_silent())
+    }
+
     pub fn voice(&self, piece: usize) -> &Voice {
         &self.voices[piece]
     }

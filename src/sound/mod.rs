@@ -4,12 +4,14 @@
 pub mod bank;
 pub mod bessel;
 pub mod contact;
+pub mod denormals;
 pub mod engine;
 pub mod event;
 pub mod limiter;
 pub mod modes;
 pub mod output;
 pub mod voice;
+pub mod wav;
 pub mod wires;
 
 pub use engine::{Engine, EngineSettings};

@@ -18,12 +18,12 @@ pub struct Voice {
     pub modes: ModeSet,
     bank: Bank,
     sample_rate_hz: f64,
-    gains: Vec<f32>,
-    centre_weights: Vec<f32>,
+    gains: Vec<Lane>,
+    centre_weights: Vec<Lane>,
     discrete: Vec<Discrete>,
     sigma: Vec<f64>,
-    q: Vec<f64>,
-    p: Vec<f64>,
+    q: Vec<Lane>,
+    p: Vec<Lane>,
     scratch: ContactScratch,
     /// Output of the contact now under way, sample by sample, and how far it has been played.
     pending_out: Vec<f32>,
@@ -53,16 +53,23 @@ impl Voice {
         // Displacement at the centre: only axisymmetric modes move it (J_m(0) = 0 for m > 0).
         let centre_weights: Vec<f32> = modes.modes.iter().map(|m| if m.m == 0 { 1.0 } else { 0.0 }).collect();
         let bank = Bank::new(&gains, &centre_weights[..n.min(LANES)]);
+        let lanes = |v: &[f32]| {
+            let mut out = vec![[0.0f32; LANES]; n.div_ceil(LANES)];
+            for (k, x) in v.iter().enumerate() {
+                out[k / LANES][k % LANES] = *x;
+            }
+            out
+        };
         let contact_cap = (MAX_CONTACT_S * sample_rate_hz as f64).ceil() as usize + 1;
         let mut voice = Voice {
             bank,
             sample_rate_hz: sample_rate_hz as f64,
-            gains,
-            centre_weights,
+            gains: lanes(&gains),
+            centre_weights: lanes(&centre_weights),
             discrete: vec![[0.0; 5]; n],
             sigma: vec![0.0; n],
-            q: vec![0.0; n],
-            p: vec![0.0; n],
+            q: vec![[0.0; LANES]; n.div_ceil(LANES)],
+            p: vec![[0.0; LANES]; n.div_ceil(LANES)],
             scratch: ContactScratch::new(n),
             pending_out: vec![0.0; contact_cap],
             pending_centre: vec![0.0; contact_cap],
@@ -155,14 +162,9 @@ impl Voice {
         }
         self.choked = false;
         self.update_damping();
-        // Bank state (y[n-1], y[n-2]) -> displacement and velocity at the last sample.
-        for k in 0..self.q.len() {
-            let (y1, y2) = self.bank.state(k);
-            let [c, s_, e, wd, sigma] = self.discrete[k];
-            let (y1, y2) = (y1 as f64, y2 as f64);
-            let b = (y1 * c - y2 * e) / s_;
-            self.q[k] = y1;
-            self.p[k] = wd * b - sigma * y1;
+        for k in 0..self.modes.modes.len() {
+            let (q, p) = self.displacement_velocity(k);
+            (self.q[k / LANES][k % LANES], self.p[k / LANES][k % LANES]) = (q as f32, p as f32);
         }
         let input = StrikeInput {
             speed_mps: s.speed_mps as f64,
@@ -172,15 +174,19 @@ impl Voice {
             k: self.hertz_k * (s.hardness as f64).clamp(0.02, 2.0),
             alpha: self.hertz_alpha,
         };
-        let state = ModalState { q: &mut self.q, p: &mut self.p, sigma: &self.sigma };
+        let state = ModalState {
+            q: &mut self.q,
+            p: &mut self.p,
+            sigma: &self.sigma,
+            out_gain: &self.gains,
+            centre_weight: &self.centre_weights,
+        };
         let (written, report) = run_contact(
             &self.modes,
             state,
             &input,
             self.sample_rate_hz,
             &mut self.scratch,
-            &self.gains,
-            &self.centre_weights,
             &mut self.pending_out,
             &mut self.pending_centre,
         );
@@ -188,12 +194,35 @@ impl Voice {
         self.pending_len = written;
         self.pending_pos = 0;
         // Back to the bank: (q, q') at the last contact sample -> (y[n-1], y[n-2]).
-        for k in 0..self.q.len() {
+        for k in 0..self.modes.modes.len() {
             let [c, s_, e, wd, sigma] = self.discrete[k];
-            let (q, p) = (self.q[k], self.p[k]);
+            let (q, p) = (self.q[k / LANES][k % LANES] as f64, self.p[k / LANES][k % LANES] as f64);
             let b = (p + sigma * q) / wd;
             self.bank.set_state(k, q as f32, ((q * c - b * s_) / e) as f32);
         }
+    }
+
+    /// Mode k's displacement and velocity at the last rendered sample, from the bank's
+    /// (y[n-1], y[n-2]) through the exact free solution.
+    fn displacement_velocity(&self, k: usize) -> (f64, f64) {
+        let (y1, y2) = self.bank.state(k);
+        let [c, s, e, wd, sigma] = self.discrete[k];
+        let (y1, y2) = (y1 as f64, y2 as f64);
+        let b = (y1 * c - y2 * e) / s;
+        (y1, wd * b - sigma * y1)
+    }
+
+    /// Vibrational energy of mode k now, joules: 1/2 M (q'^2 + w0^2 q^2).
+    pub fn mode_energy_j(&self, k: usize) -> f64 {
+        let (q, p) = self.displacement_velocity(k);
+        let mode = &self.modes.modes[k];
+        let w0 = 2.0 * PI * mode.freq_hz;
+        0.5 * mode.mass_kg * (p * p + w0 * w0 * q * q)
+    }
+
+    /// Vibrational energy of the whole surface now, joules.
+    pub fn modal_energy_j(&self) -> f64 {
+        (0..self.modes.modes.len()).map(|k| self.mode_energy_j(k)).sum()
     }
 
     /// Write the next `out.len()` samples (at most the engine's max block) into `out`.
