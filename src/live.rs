@@ -91,7 +91,7 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
         Some(path) => Kit::load(path)?,
         None => Kit::builtin_default(),
     };
-    let map = load_map(&opts.map)?;
+    let map = NoteMap::load(&opts.map)?;
     let channel = channel.unwrap_or(map.channel);
     let director = Director::new(&kit, &map)?;
 
@@ -129,11 +129,6 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
     feeder.join().map_err(|_| anyhow::anyhow!("the feed thread panicked"))?.context("message transport")?;
     eprintln!("drumsim live: stopped after {:.1} s: {}", epoch.elapsed().as_secs_f64(), counters.report(&audio.stats));
     result
-}
-
-// TEMPORARY: NoteMap::load is being written on main; replaced on merge.
-fn load_map(name: &str) -> Result<NoteMap, crate::midi::MapError> {
-    Ok(NoteMap { name: name.into(), channel: 10, notes: vec![None; 128] })
 }
 
 fn validate(opts: &LiveOptions) -> Result<Option<u8>, LiveInputError> {

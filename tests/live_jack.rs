@@ -237,14 +237,14 @@ fn note_frames() -> Vec<u64> {
     (0..NOTES.len() as u64).map(|i| FIRST_NOTE + i * SPACING + (i * 97) % PERIOD).collect()
 }
 
-/// First frame in `from..to` whose short-window energy is well above the loudest window of the
-/// 30 ms before `from` (previous notes still ring), or None.
+/// First frame in `from..to` whose short-window energy is twice (3 dB above) the loudest window
+/// of the 30 ms before `from` (previous notes still ring), or None.
 fn onset(x: &[f32], from: usize, to: usize) -> Option<usize> {
-    const W: usize = 32;
+    const W: usize = 64;
     let energy = |end: usize| x[end.saturating_sub(W)..end].iter().map(|v| v * v).sum::<f32>();
     let before = (from.saturating_sub(RATE as usize * 30 / 1000)..=from).map(energy).fold(0.0, f32::max);
     let floor = W as f32 * 1e-3 * 1e-3;
-    let threshold = 4.0 * before + floor;
+    let threshold = 2.0 * before + floor;
     let end = (from + 1..to.min(x.len())).find(|&end| energy(end) > threshold)?;
     // The window holds at least one sample above the window's mean threshold: the first is the onset.
     (end.saturating_sub(W).max(from)..end).find(|&n| x[n] * x[n] > threshold / W as f32).or(Some(end - 1))
@@ -305,14 +305,17 @@ fn every_note_sounds_within_two_periods() {
     assert!(onset(x, 0, FIRST_NOTE as usize).is_none(), "sound before the first note");
     let mut latencies_ms = Vec::new();
     let mut per_note = String::new();
+    let ms = |frames: usize| frames * RATE as usize / 1000;
     for (i, &t) in frames.iter().enumerate() {
-        let next = frames.get(i + 1).copied().unwrap_or(total) as usize;
-        let Some(at) = onset(x, t as usize, next) else {
-            panic!("note {i} ({:?}) at frame {t} made no sound before frame {next}", NOTES[i]);
+        let (t, next) = (t as usize, frames.get(i + 1).copied().unwrap_or(total) as usize);
+        // The detector must not fire on ringing alone, or a missing note would pass unseen.
+        assert_eq!(onset(x, t + ms(100), t + ms(150)), None, "onset in the tail of note {i} ({:?})", NOTES[i]);
+        let Some(at) = onset(x, t, next.min(t + ms(50))) else {
+            panic!("note {i} ({:?}) at frame {t} made no sound within 50 ms", NOTES[i]);
         };
-        let ms = (at as f64 - t as f64) * 1000.0 / RATE as f64;
-        per_note += &format!(" {}:{ms:.1}", NOTES[i].0);
-        latencies_ms.push(ms);
+        let latency_ms = (at - t) as f64 * 1000.0 / RATE as f64;
+        per_note += &format!(" {}:{latency_ms:.1}", NOTES[i].0);
+        latencies_ms.push(latency_ms);
     }
     latencies_ms.sort_by(f64::total_cmp);
     let mean = latencies_ms.iter().sum::<f64>() / latencies_ms.len() as f64;

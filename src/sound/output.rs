@@ -8,6 +8,7 @@
 //! renders into preallocated buffers and interleaves them. Problems are counted in
 //! [`OutputStats`] for the main thread to report.
 
+use super::denormals::with_flush_to_zero;
 use super::{Engine, EngineSettings, SoundEvent, SoundEventKind};
 use crate::interaction::transport::{PacketReceiver, TransportError};
 use crate::interaction::{decode, Message};
@@ -155,16 +156,6 @@ fn interleave(left: &[f32], right: &[f32], out: &mut [f32], channels: usize) {
     }
     let whole = left.len().min(out.len() / channels) * channels;
     out[whole..].fill(0.0);
-}
-
-/// Run `f` with flush-to-zero / denormals-are-zero set, so decaying modes never go subnormal.
-///
-/// `no_denormals::no_denormals` is an `unsafe fn`, and Cargo.toml forbids `unsafe_code`
-/// crate-wide, which no `#[allow]` can lift. Until that lint is `deny` (so that this one call
-/// can carry `#[allow(unsafe_code)]` and its SAFETY comment), this runs `f` as it is.
-#[inline]
-fn with_flush_to_zero<R>(f: impl FnOnce() -> R) -> R {
-    f()
 }
 
 /// Maps a message's performance time (seconds) to an instant on this machine's clock.
