@@ -99,7 +99,9 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
     let port = choose_port(&input.port_names(), opts.midi_port.as_deref())?;
     let device = output::find_output(opts.audio_device.as_deref()).map_err(|available| match &opts.audio_device {
         Some(wanted) => anyhow::Error::new(LiveInputError::NoSuchAudioDevice { wanted: wanted.clone(), available }),
-        None => anyhow::anyhow!("no audio output device (is a sound server or JACK running?)"),
+        None => anyhow::anyhow!(
+            "no default audio output (is JACK or a sound card there?); choose one with --audio, see `drumsim devices`"
+        ),
     })?;
     let settings =
         OutputSettings { lookahead: Duration::from_secs_f32(opts.lookahead_ms / 1000.0), ..Default::default() };

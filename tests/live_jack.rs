@@ -334,11 +334,19 @@ fn every_note_sounds_within_two_periods() {
 }
 
 #[test]
-fn a_vanished_midi_port_is_reported_and_reconnected() {
+fn devices_lists_the_port_and_a_vanished_port_is_reported_and_reconnected() {
     let _turn = one_at_a_time();
     let server = JackServer::start();
     let note = vec![(RATE / 10, [0x99, 38, 100])];
     let (client, _, _) = player("drumsim-src", note.clone(), 0);
+    let devices = Command::new(env!("CARGO_BIN_EXE_drumsim"))
+        .arg("devices")
+        .env("JACK_DEFAULT_SERVER", &server.name)
+        .output()
+        .unwrap();
+    let listing = String::from_utf8_lossy(&devices.stdout);
+    assert!(devices.status.success() && listing.contains("  drumsim-src:midi_out\n"), "drumsim devices:\n{listing}");
+    assert!(listing.contains("JACK: JACK Output [jack:output]  (default)"), "drumsim devices:\n{listing}");
     let mut drumsim = Drumsim::live(&server, &["--midi", "drumsim-src:midi", "--map", "gm", "--duration-s", "8"]);
     drumsim.wait_for("drumsim live: MIDI", Duration::from_secs(20));
 

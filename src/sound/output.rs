@@ -267,22 +267,24 @@ pub fn hosts() -> Vec<HostId> {
 /// The output devices of one host, its default first.
 pub fn host_outputs(id: HostId) -> Result<Vec<OutputDevice>, cpal::Error> {
     let host = cpal::host_from_id(id)?;
-    let default_id = host.default_output_device().and_then(|d| d.id().ok());
-    let mut out: Vec<OutputDevice> = host
-        .output_devices()?
-        .filter_map(|device| {
-            let description = device.description().ok();
-            // JACK lists its input device among the outputs: ask each device its direction.
-            if description.as_ref().is_some_and(|d| d.direction() == cpal::DeviceDirection::Input) {
-                return None;
-            }
-            let name = description.map_or_else(|| "?".to_string(), |d| d.name().to_string());
-            let dev_id = device.id().ok();
-            let is_default = dev_id.is_some() && dev_id == default_id;
-            let id_text = dev_id.map(|i| i.to_string()).unwrap_or_default();
-            Some(OutputDevice { host: id, device, label: format!("{}: {name} [{id_text}]", id.name()), is_default })
-        })
-        .collect();
+    let default = host.default_output_device();
+    let default_id = default.as_ref().and_then(|d| d.id().ok());
+    let describe = |device: cpal::Device| {
+        let description = device.description().ok();
+        // JACK lists its input device among the outputs: ask each device its direction.
+        if description.as_ref().is_some_and(|d| d.direction() == cpal::DeviceDirection::Input) {
+            return None;
+        }
+        let name = description.map_or_else(|| "?".to_string(), |d| d.name().to_string());
+        let dev_id = device.id().ok();
+        let is_default = dev_id.is_some() && dev_id == default_id;
+        let id_text = dev_id.map(|i| i.to_string()).unwrap_or_default();
+        Some(OutputDevice { host: id, device, label: format!("{}: {name} [{id_text}]", id.name()), is_default })
+    };
+    let mut out: Vec<OutputDevice> = host.output_devices()?.filter_map(describe).collect();
+    if !out.iter().any(|d| d.is_default) {
+        out.extend(default.and_then(describe)); // a default the enumeration left out
+    }
     out.sort_by_key(|d| !d.is_default);
     Ok(out)
 }
@@ -294,7 +296,7 @@ pub fn find_output(wanted: Option<&str>) -> Result<OutputDevice, Vec<String>> {
     for id in hosts() {
         let devices = host_outputs(id).unwrap_or_default();
         let hit = match wanted {
-            None => devices.iter().position(|d| d.is_default).or((!devices.is_empty()).then_some(0)),
+            None => devices.iter().position(|d| d.is_default),
             Some(w) => devices.iter().position(|d| d.label.to_lowercase().contains(&w.to_lowercase())),
         };
         if let Some(i) = hit {
