@@ -127,7 +127,7 @@ pub struct Score {
     pub contacts: ContactsFile,
     /// Sound events in time order, decoded from the OSC packets that carried them.
     pub events: Vec<SoundEvent>,
-    /// End of the performance, seconds.
+    /// Time of the last note, seconds (files may run on long after it with pedal data only).
     pub duration_s: f64,
 }
 
@@ -189,7 +189,7 @@ pub fn score_performance(perf: &Performance, kit: &Kit, map: &NoteMap) -> anyhow
         }
     }
     events.sort_by_key(|e| e.at_sample);
-    Ok(Score { contacts, events, duration_s: perf.duration_s })
+    Ok(Score { contacts, events, duration_s: perf.notes_end_s })
 }
 
 /// Render sound events to stereo blocks handed to `sink`, starting at the events' time zero

@@ -131,14 +131,29 @@ pub fn zeros_where(
                 if !want(m, index) {
                     continue;
                 }
+                // Illinois regula falsi: superlinear, and it keeps the bracket.
                 let (mut lo, mut hi) = (x0, x1);
-                let flo = f(m, lo);
-                for _ in 0..42 {
-                    let mid = 0.5 * (lo + hi);
-                    if f(m, mid).signum() == flo.signum() {
-                        lo = mid;
+                let (mut flo, mut fhi) = (prev[m], cur[m]);
+                let mut side = 0i8;
+                for _ in 0..60 {
+                    let mid = (lo * fhi - hi * flo) / (fhi - flo);
+                    let fm = f(m, mid);
+                    if fm == 0.0 || (hi - lo) < 1e-13 * hi {
+                        (lo, hi) = (mid, mid);
+                        break;
+                    }
+                    if fm.signum() == flo.signum() {
+                        (lo, flo) = (mid, fm);
+                        if side == -1 {
+                            fhi *= 0.5;
+                        }
+                        side = -1;
                     } else {
-                        hi = mid;
+                        (hi, fhi) = (mid, fm);
+                        if side == 1 {
+                            flo *= 0.5;
+                        }
+                        side = 1;
                     }
                 }
                 found.push((m, index, 0.5 * (lo + hi)));
