@@ -9,6 +9,7 @@ pub mod engine;
 pub mod event;
 pub mod limiter;
 pub mod modes;
+pub mod output;
 pub mod voice;
 pub mod wav;
 pub mod wires;
