@@ -84,6 +84,7 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::kit::KitError>()
             || e.is::<drumsim::render::RenderInputError>()
             || e.is::<drumsim::sound::event::UnknownPiece>()
+            || e.is::<drumsim::live::LiveInputError>()
     });
     if bad_input {
         2
