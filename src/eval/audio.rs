@@ -1,4 +1,4 @@
-//! Audio measures: spectrum and its peaks, spectral centroid, level, decay rate and onsets.
+//! Audio measures: spectrum and its peaks, spectral centroid, level and decay rate.
 
 use std::f64::consts::PI;
 
@@ -109,54 +109,6 @@ pub fn decay_db_per_s(x: &[f32], sample_rate_hz: f64, from_db: f64, to_db: f64) 
     -(n * sxy - sx * sy) / (n * sxx - sx * sx)
 }
 
-/// The first sample in `[from, to)` where the signal's sample-to-sample change rises above
-/// `factor` times the largest change in the `window` samples before `from` (and above an
-/// absolute floor): the start of a new strike, even over a ringing background.
-pub fn onset_after(x: &[f32], from: usize, to: usize, window: usize, factor: f32) -> Option<usize> {
-    let d = |i: usize| if i == 0 { x[0].abs() } else { (x[i] - x[i - 1]).abs() };
-    let start = from.saturating_sub(window);
-    let background = (start..from.min(x.len())).map(d).fold(0.0f32, f32::max);
-    let threshold = (background * factor).max(1e-4);
-    (from..to.min(x.len())).find(|&i| d(i) > threshold)
-}
-
-/// Linear-prediction coefficients a[1..=order] (x[n] ~ sum a_k x[n-k]) of `x`, by the
-/// autocorrelation method (Hann window) and Levinson-Durbin.
-pub fn lpc(x: &[f32], order: usize) -> Vec<f64> {
-    let n = x.len();
-    let w: Vec<f64> = (0..n).map(|i| x[i] as f64 * (0.5 - 0.5 * (2.0 * PI * i as f64 / n as f64).cos())).collect();
-    let r: Vec<f64> = (0..=order).map(|k| (k..n).map(|i| w[i] * w[i - k]).sum()).collect();
-    let mut a = vec![0.0; order + 1];
-    let mut err = r[0] * (1.0 + 1e-9) + 1e-30;
-    for i in 1..=order {
-        let acc: f64 = (1..i).map(|j| a[j] * r[i - j]).sum();
-        let k = (r[i] - acc) / err;
-        let prev = a.clone();
-        a[i] = k;
-        for j in 1..i {
-            a[j] = prev[j] - k * prev[i - j];
-        }
-        err *= 1.0 - k * k;
-    }
-    a
-}
-
-/// Onset of a new strike over a ringing background: fit a linear predictor to the `fit`
-/// samples before `from` (decaying modes are almost perfectly predictable), and return the
-/// first sample in `[from, to)` whose prediction error exceeds `factor` times the largest
-/// error over the last quarter of the fit window.
-pub fn onset_by_prediction(x: &[f32], from: usize, to: usize, fit: usize, order: usize, factor: f64) -> Option<usize> {
-    let start = from.checked_sub(fit)?;
-    let a = lpc(&x[start..from], order);
-    let error = |n: usize| {
-        let predicted: f64 = (1..=order).map(|k| a[k] * x[n - k] as f64).sum();
-        (x[n] as f64 - predicted).abs()
-    };
-    let background = (from - fit / 4..from).map(error).fold(0.0, f64::max);
-    let threshold = (background * factor).max(1e-6);
-    (from..to.min(x.len())).find(|&n| error(n) > threshold)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -169,22 +121,6 @@ mod tests {
         let peaks = spectral_peaks(&s, fs, -20.0);
         assert_eq!(peaks.len(), 1);
         assert!((peaks[0].0 - 1234.5).abs() < 0.5, "{:?}", peaks);
-    }
-
-    #[test]
-    fn prediction_finds_a_soft_onset_under_loud_ringing() {
-        let fs = 48_000.0;
-        let ring = |t: f64| (2.0 * PI * 3000.0 * t).sin() * 0.5 + (2.0 * PI * 7100.0 * t).sin() * 0.3;
-        // A slow, quiet 150 Hz onset at sample 9600 under a loud bright ring.
-        let x: Vec<f32> = (0..12_000)
-            .map(|i| {
-                let t = i as f64 / fs;
-                let new = if i >= 9600 { 0.02 * (2.0 * PI * 150.0 * (t - 0.2)).sin() } else { 0.0 };
-                (ring(t) + new) as f32
-            })
-            .collect();
-        let found = onset_by_prediction(&x, 9500, 10_000, 960, 16, 4.0).unwrap();
-        assert!((9600..9610).contains(&found), "{found}");
     }
 
     #[test]

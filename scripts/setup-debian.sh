@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Install what drumsim needs to build and test on Debian/Ubuntu: the ALSA and JACK headers,
+# pkg-config, a JACK server (for `drumsim live` and its end-to-end test), and a Rust toolchain
+# if there is none. Safe to run again; runs apt only for what is missing.
+set -euo pipefail
+packages=(pkg-config libasound2-dev libjack-jackd2-dev jackd2 gcc)
+sudo=""
+[ "$(id -u)" -eq 0 ] || sudo="sudo"
+missing=()
+for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+    echo "setup-debian: installing ${missing[*]}" >&2
+    $sudo apt-get update -qq
+    # jackd2 asks whether to enable realtime scheduling; answer no, non-interactively.
+    echo "jackd2 jackd/tweak_rt_limits boolean false" | $sudo debconf-set-selections
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+if ! command -v cargo >/dev/null 2>&1; then
+    [ -x "$HOME/.cargo/bin/cargo" ] || {
+        echo "setup-debian: installing Rust with rustup" >&2
+        command -v curl >/dev/null || { $sudo apt-get install -y -qq curl ca-certificates >/dev/null; }
+        curl --proto '=https' --tlsv1.2 -sSf https://sh.rustup.rs | sh -s -- -y --profile minimal -c rustfmt,clippy
+    }
+    echo "setup-debian: Rust is in ~/.cargo/bin; run: source ~/.cargo/env" >&2
+fi
