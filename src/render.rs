@@ -3,6 +3,7 @@
 //! Outputs are written to `.partial` files and renamed only when complete.
 
 use crate::interaction::direct::{DirectError, Director};
+use crate::interaction::transport::{self, PacketReceiver, PacketSender};
 use crate::interaction::{decode, encode, Message};
 use crate::kit::Kit;
 use crate::midi::{read_file, DrumEventKind, NoteMap, Performance, ReadOptions};
@@ -10,7 +11,7 @@ use crate::sound::wav::{write_atomically, WavSink};
 use crate::sound::{Engine, EngineSettings, SoundEvent};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 pub const SAMPLE_RATE_HZ: u32 = 48_000;
 /// Longest ring-out rendered after the last event, seconds.
@@ -149,24 +150,6 @@ pub fn score_file(song: &Path, kit: &Kit, map: &NoteMap, opts: &RenderOptions) -
 pub fn score_performance(perf: &Performance, kit: &Kit, map: &NoteMap) -> anyhow::Result<Score> {
     let mut director = Director::new(kit, map).map_err(RenderInputError::from)?;
     director.note_openness = !perf.events.iter().any(|e| matches!(e.kind, DrumEventKind::HiHatPedal { .. }));
-    let (tx, rx) = crossbeam_channel::unbounded::<Vec<u8>>();
-    let mut notes: Vec<Option<NoteRef>> = Vec::new();
-    let mut msgs = Vec::new();
-    for ev in &perf.events {
-        msgs.clear();
-        director.on_event(ev, &mut msgs);
-        let note = match ev.kind {
-            DrumEventKind::NoteOn { note, velocity } => Some(NoteRef { note, velocity, time_s: ev.time_s }),
-            _ => None,
-        };
-        for m in &msgs {
-            let mut buf = Vec::with_capacity(96);
-            encode(m, &mut buf)?;
-            tx.send(buf)?;
-            notes.push(note);
-        }
-    }
-    drop(tx);
     let mut contacts = ContactsFile {
         song: perf.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
         sound: "direct",
@@ -177,14 +160,28 @@ pub fn score_performance(perf: &Performance, kit: &Kit, map: &NoteMap) -> anyhow
         hihat: Vec::new(),
         chokes: Vec::new(),
     };
-    let mut events = Vec::with_capacity(notes.len());
-    for (packet, note) in rx.iter().zip(notes) {
-        for msg in decode(&packet)? {
-            events.push(SoundEvent::from_message(&msg, kit, SAMPLE_RATE_HZ as f32)?);
-            match msg {
-                Message::Contact(contact) => contacts.contacts.push(ContactRecord { contact, note }),
-                Message::HiHat { time_s, openness } => contacts.hihat.push(HiHatRecord { time_s, openness }),
-                Message::Choke { piece, time_s } => contacts.chokes.push(ChokeRecord { piece, time_s }),
+    // The same in-process transport the live mode uses: OSC bytes in, decoded messages out.
+    let (mut tx, mut rx) = transport::channel(64);
+    let mut events = Vec::new();
+    let (mut msgs, mut buf) = (Vec::new(), Vec::with_capacity(128));
+    for ev in &perf.events {
+        msgs.clear();
+        director.on_event(ev, &mut msgs);
+        let note = match ev.kind {
+            DrumEventKind::NoteOn { note, velocity } => Some(NoteRef { note, velocity, time_s: ev.time_s }),
+            _ => None,
+        };
+        for m in &msgs {
+            encode(m, &mut buf)?;
+            tx.send(&buf)?;
+            let packet = rx.recv_timeout(Duration::ZERO)?.expect("a packet just sent is there");
+            for msg in decode(packet)? {
+                events.push(SoundEvent::from_message(&msg, kit, SAMPLE_RATE_HZ as f32)?);
+                match msg {
+                    Message::Contact(contact) => contacts.contacts.push(ContactRecord { contact, note }),
+                    Message::HiHat { time_s, openness } => contacts.hihat.push(HiHatRecord { time_s, openness }),
+                    Message::Choke { piece, time_s } => contacts.chokes.push(ChokeRecord { piece, time_s }),
+                }
             }
         }
     }
