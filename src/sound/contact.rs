@@ -170,12 +170,13 @@ pub fn run_contact(
     }
     // Sub-steps: resolve both the contact's duration and the stiff local oscillation of the
     // striker against the surface's effective mass at its deepest compression (w h <= 1; the
-    // leapfrog is stable to w h < 2 and its energy error stays bounded).
+    // leapfrog is stable to w h < 2 and its energy error stays bounded, but at w h = 1.5 a tom's
+    // peak force is already 20 % off the converged value). A soft kick needs only one.
     let c_max = max_compression_m(strike);
     let k_lin = strike.alpha * strike.k * c_max.powf(strike.alpha - 1.0);
     let w_local = (k_lin * (inv_mass + 1.0 / strike.mass_kg)).sqrt();
     let by_duration = 30.0 * t / rigid_contact_time_s(strike);
-    let substeps = (by_duration.max(t * w_local).ceil() as usize).clamp(2, 64);
+    let substeps = (by_duration.max(t * w_local).ceil() as usize).clamp(1, 64);
     let h = t / substeps as f64;
     for (k, mode) in modes.modes.iter().enumerate() {
         let w0 = 2.0 * std::f64::consts::PI * mode.freq_hz;
