@@ -163,11 +163,10 @@ pub fn run_contact(
     let chunks = &mut scratch.chunks[..q.len()];
     // Mode shapes at the strike point, and the surface's mobility there: 1 / m_eff = sum phi^2 / M.
     let mut inv_mass = 0.0;
-    for (k, mode) in modes.modes.iter().enumerate() {
-        let phi = modes.shape_at(k, strike.x_m, strike.y_m);
+    modes.shapes_at(strike.x_m, strike.y_m, |k, phi| {
         chunks[k / LANES].phi[k % LANES] = phi as f32;
-        inv_mass += phi * phi / mode.mass_kg;
-    }
+        inv_mass += phi * phi / modes.modes[k].mass_kg;
+    });
     // Sub-steps: resolve both the contact's duration and the stiff local oscillation of the
     // striker against the surface's effective mass at its deepest compression (w h <= 1; the
     // leapfrog is stable to w h < 2 and its energy error stays bounded, but at w h = 1.5 a tom's
