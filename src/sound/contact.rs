@@ -55,9 +55,6 @@ fn max_compression_m(s: &StrikeInput) -> f64 {
     ((s.alpha + 1.0) * s.mass_kg * v * v / (2.0 * s.k)).powf(1.0 / (s.alpha + 1.0))
 }
 
-/// Modal state, per mode in lanes: displacement q, velocity p, and the output and centre
-/// weights, plus the current decay rate of each mode.
-
 /// Modal state, per mode in lanes: displacement q (m) and scaled velocity
 /// v = (q' + sigma q) / wd (m), the output weights, the centre weights, and each mode's decay
 /// rate as [`damped`] caps it.
@@ -242,8 +239,8 @@ pub fn run_contact(
     v -= 0.5 * impulse / strike.mass_kg;
     let half = 0.5 * impulse as f32;
     for (vi, k) in v_modes.iter_mut().zip(chunks.iter()) {
-        for l in 0..LANES {
-            vi[l] += half * k.kick[l];
+        for (v, kick) in vi.iter_mut().zip(k.kick) {
+            *v += half * kick;
         }
     }
     report.rebound_mps = -v;
