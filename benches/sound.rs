@@ -29,8 +29,18 @@ const MODE_COUNTS: [usize; 3] = [64, 256, 1024];
 /// 59.97 s of a hip-hop beat at 92 bpm (drummer 3, session 2, take 26).
 const SONG: &str = "drummer3/session2/26_hiphop_92_beat_4-4.mid";
 
-/// Seconds per iteration of every sample criterion took, by benchmark name.
+/// Samples criterion takes of each benchmark.
+const SAMPLES: usize = 10;
+
+/// Seconds per iteration of each call criterion made, by benchmark name.
 static TIMES: Mutex<BTreeMap<String, Vec<f64>>> = Mutex::new(BTreeMap::new());
+
+/// Keep the time per iteration of one call for the summary.
+fn record(name: &str, iters: u64, elapsed: Duration) -> Duration {
+    let mut times = TIMES.lock().expect("bench timing lock");
+    times.entry(name.to_string()).or_default().push(elapsed.as_secs_f64() / iters as f64);
+    elapsed
+}
 
 /// Time `iters` runs of `f`, and keep the time per run for the summary.
 fn timed(name: &str, iters: u64, mut f: impl FnMut()) -> Duration {
@@ -38,16 +48,15 @@ fn timed(name: &str, iters: u64, mut f: impl FnMut()) -> Duration {
     for _ in 0..iters {
         f();
     }
-    let elapsed = start.elapsed();
-    let mut times = TIMES.lock().expect("bench timing lock");
-    times.entry(name.to_string()).or_default().push(elapsed.as_secs_f64() / iters as f64);
-    elapsed
+    record(name, iters, start.elapsed())
 }
 
-/// Median seconds per iteration of a benchmark, if it ran.
+/// Median seconds per iteration over the measured samples of a benchmark (the last
+/// [`SAMPLES`] calls; the ones before were warm-up), if it ran.
 fn median_s(name: &str) -> Option<f64> {
     let times = TIMES.lock().expect("bench timing lock");
-    let mut t = times.get(name)?.clone();
+    let all = times.get(name)?;
+    let mut t = all[all.len().saturating_sub(SAMPLES)..].to_vec();
     t.sort_by(f64::total_cmp);
     Some(t[t.len() / 2])
 }
@@ -98,7 +107,7 @@ fn naive_process(modes: &mut [NaiveMode], out: &mut [f32]) {
 
 fn modal_bank(c: &mut Criterion) {
     let mut group = c.benchmark_group("modal bank");
-    group.sample_size(10).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(1));
+    group.sample_size(SAMPLES).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(1));
     for modes in MODE_COUNTS {
         group.throughput(Throughput::Elements((modes * BLOCK) as u64));
         let mut bank = ringing_bank(modes);
@@ -166,7 +175,7 @@ fn render_60s(c: &mut Criterion) -> Option<f64> {
     let map = NoteMap::load("roland-td").expect("built-in map");
     let audio_s = render_song(&kit, &map, &song);
     let mut group = c.benchmark_group("render 60 s");
-    group.sample_size(10).sampling_mode(SamplingMode::Flat).warm_up_time(Duration::from_millis(500));
+    group.sample_size(SAMPLES).sampling_mode(SamplingMode::Flat).warm_up_time(Duration::from_millis(500));
     group.measurement_time(Duration::from_secs(4));
     group.bench_function("direct", |b| {
         b.iter_custom(|iters| timed("render", iters, || _ = black_box(render_song(&kit, &map, &song))))
@@ -178,7 +187,7 @@ fn render_60s(c: &mut Criterion) -> Option<f64> {
 fn one_strike(c: &mut Criterion) {
     let kit = Kit::builtin_default();
     let mut group = c.benchmark_group("one strike");
-    group.sample_size(10).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(1));
+    group.sample_size(SAMPLES).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(1));
     for (id, r_frac, mass_kg) in [("snare", 0.3, 0.045), ("crash", 0.9, 0.045), ("kick", 0.2, 0.12)] {
         let piece = kit.piece(id).expect("default kit piece");
         let voice = Voice::new(piece, SAMPLE_RATE_HZ as f32, BLOCK);
@@ -189,10 +198,12 @@ fn one_strike(c: &mut Criterion) {
                 let mut total = Duration::ZERO;
                 for _ in 0..iters {
                     let mut v = voice.clone();
-                    total += with_flush_to_zero(|| timed(&format!("strike/{id}"), 1, || v.strike(black_box(&strike))));
+                    let start = Instant::now();
+                    with_flush_to_zero(|| v.strike(black_box(&strike)));
+                    total += start.elapsed();
                     black_box(&v);
                 }
-                total
+                record(&format!("strike/{id}"), iters, total)
             })
         });
     }
