@@ -60,36 +60,36 @@ fn miller_start(m_max: usize, ax: f64) -> usize {
     ((top + 20 + (40.0 * (top as f64 + 1.0)).sqrt() as usize) | 1) + 1
 }
 
-/// J_m(x) for one order: the same recurrence as [`bessel_j_all`], keeping only the order
-/// asked for and the normalising sum.
+/// J_m(x) for one order: the same recurrence as [`bessel_j_all`], two orders per turn (an odd
+/// and an even one, so the normalising sum needs no test), keeping only the order asked for.
 pub fn bessel_j(m: usize, x: f64) -> f64 {
     let ax = x.abs();
     if ax < 1e-12 {
         return if m == 0 { 1.0 } else { 0.0 };
     }
     let two_over_x = 2.0 / ax;
-    let (mut j_next, mut j_cur) = (0.0f64, 1e-300f64);
+    // j_hi = J_k, j_top = J_(k+1) (unnormalised), k even.
+    let (mut j_top, mut j_hi) = (0.0f64, 1e-300f64);
     let (mut norm, mut value) = (0.0f64, 0.0f64);
-    for k in (1..=miller_start(m, ax)).rev() {
-        // j_cur = J_k (unnormalised); compute J_{k-1}.
-        let j_prev = (k as f64 * two_over_x) * j_cur - j_next;
-        j_next = j_cur;
-        j_cur = j_prev;
-        let order = k - 1;
-        if order == m {
-            value = j_cur;
+    let mut k = miller_start(m, ax);
+    while k >= 2 {
+        let j_odd = (k as f64 * two_over_x) * j_hi - j_top; // J_(k-1)
+        let j_even = ((k - 1) as f64 * two_over_x) * j_odd - j_hi; // J_(k-2)
+        if k - 1 == m {
+            value = j_odd;
+        } else if k - 2 == m {
+            value = j_even;
         }
-        if order % 2 == 0 && order > 0 {
-            norm += 2.0 * j_cur;
-        }
-        if j_cur.abs() > 1e250 {
-            j_cur *= 1e-250;
-            j_next *= 1e-250;
+        norm += if k > 2 { 2.0 * j_even } else { j_even };
+        (j_top, j_hi) = (j_odd, j_even);
+        if j_hi.abs() > 1e250 {
+            j_top *= 1e-250;
+            j_hi *= 1e-250;
             norm *= 1e-250;
             value *= 1e-250;
         }
+        k -= 2;
     }
-    norm += j_cur; // J_0
     let v = value / norm;
     if x < 0.0 && m % 2 == 1 {
         -v
