@@ -1,7 +1,8 @@
 //! The modal resonator bank: each mode is an exact two-pole recursion of a damped oscillator,
 //! y[n] = a1 y[n-1] - a2 y[n-2], a1 = 2 e^(-sigma T) cos(omega_d T), a2 = e^(-2 sigma T).
 //! Modes sit in lanes of eight; each lane keeps its own output accumulator per sample, summed
-//! across lanes once per block, so the inner loop vectorises. Chunks of eight modes that have
+//! across lanes once per block, so the inner loop vectorises, and chunks of eight run in pairs
+//! so that one chunk's recursion runs while the other's waits on its multiply. Chunks of eight modes that have
 //! decayed below audibility sleep until the next strike.
 
 /// Modes per chunk.
@@ -29,6 +30,9 @@ pub struct Bank {
     /// so the output does not depend on how the caller splits it into blocks.
     clock: u64,
 }
+
+/// Chunks run side by side in the inner loop.
+const GROUP: usize = 2;
 
 /// Samples between checks for chunks that have decayed to silence.
 pub const SLEEP_CHECK: u64 = 128;
@@ -122,26 +126,49 @@ impl Bank {
             }
             first = 1;
         }
+        // Chunks in groups of GROUP: their recursions are independent, so the processor
+        // overlaps their latencies. Each lane still adds the chunks in ascending order.
+        let mut group = [0usize; GROUP];
+        let mut len = 0;
         for c in first..self.active.len() {
-            if !self.active[c] {
-                continue;
-            }
-            let (a1, a2, g) = (self.a1[c], self.a2[c], self.gain[c]);
-            let (mut y1, mut y2) = (self.y1[c], self.y2[c]);
-            for acc_s in acc.iter_mut() {
-                let mut y = [0.0f32; LANES];
-                for l in 0..LANES {
-                    y[l] = a1[l] * y1[l] - a2[l] * y2[l];
-                    acc_s[l] += g[l] * y[l];
+            if self.active[c] {
+                group[len] = c;
+                len += 1;
+                if len == GROUP {
+                    self.run_chunks(group, acc);
+                    len = 0;
                 }
-                y2 = y1;
-                y1 = y;
             }
-            self.y1[c] = y1;
-            self.y2[c] = y2;
+        }
+        for &c in &group[..len] {
+            self.run_chunks([c], acc);
         }
         for (o, a) in out.iter_mut().zip(acc.iter()) {
             *o += a.iter().sum::<f32>();
+        }
+    }
+
+    /// Advance the chunks `idx` over `acc.len()` samples, adding their outputs into `acc`.
+    #[inline(always)]
+    fn run_chunks<const N: usize>(&mut self, idx: [usize; N], acc: &mut [Lane]) {
+        let a1 = idx.map(|c| self.a1[c]);
+        let a2 = idx.map(|c| self.a2[c]);
+        let g = idx.map(|c| self.gain[c]);
+        let mut y1 = idx.map(|c| self.y1[c]);
+        let mut y2 = idx.map(|c| self.y2[c]);
+        for acc_s in acc.iter_mut() {
+            for j in 0..N {
+                for l in 0..LANES {
+                    let y = a1[j][l] * y1[j][l] - a2[j][l] * y2[j][l];
+                    acc_s[l] += g[j][l] * y;
+                    y2[j][l] = y1[j][l];
+                    y1[j][l] = y;
+                }
+            }
+        }
+        for (j, &c) in idx.iter().enumerate() {
+            self.y1[c] = y1[j];
+            self.y2[c] = y2[j];
         }
     }
 

@@ -13,14 +13,13 @@ pub fn bessel_j_all(x: f64, out: &mut [f64]) {
         out[0] = 1.0;
         return;
     }
-    // Start well above both the largest order and x, at an even index.
-    let start = (m_max.max(ax as usize) + 20 + (40.0 * (m_max.max(ax as usize) as f64 + 1.0)).sqrt() as usize) | 1;
-    let start = start + 1;
+    let start = miller_start(m_max, ax);
+    let two_over_x = 2.0 / ax;
     let (mut j_next, mut j_cur) = (0.0f64, 1e-300f64);
     let mut norm = 0.0f64;
     for k in (1..=start).rev() {
         // j_cur = J_k (unnormalised); compute J_{k-1}.
-        let j_prev = (2.0 * k as f64 / ax) * j_cur - j_next;
+        let j_prev = (k as f64 * two_over_x) * j_cur - j_next;
         j_next = j_cur;
         j_cur = j_prev;
         let order = k - 1;
@@ -41,8 +40,9 @@ pub fn bessel_j_all(x: f64, out: &mut [f64]) {
         }
     }
     norm += j_cur; // J_0
+    let inv_norm = 1.0 / norm;
     for v in out.iter_mut() {
-        *v /= norm;
+        *v *= inv_norm;
     }
     if x < 0.0 {
         for (m, v) in out.iter_mut().enumerate() {
@@ -53,16 +53,48 @@ pub fn bessel_j_all(x: f64, out: &mut [f64]) {
     }
 }
 
-/// J_m(x) for one order.
+/// Where Miller's backward recurrence starts for orders up to `m_max` at |x| = `ax`: well
+/// above both, at an even index.
+fn miller_start(m_max: usize, ax: f64) -> usize {
+    let top = m_max.max(ax as usize);
+    ((top + 20 + (40.0 * (top as f64 + 1.0)).sqrt() as usize) | 1) + 1
+}
+
+/// J_m(x) for one order: the same recurrence as [`bessel_j_all`], two orders per turn (an odd
+/// and an even one, so the normalising sum needs no test), keeping only the order asked for.
 pub fn bessel_j(m: usize, x: f64) -> f64 {
-    let mut buf = [0.0f64; 128];
-    if m < buf.len() {
-        bessel_j_all(x, &mut buf[..=m]);
-        buf[m]
+    let ax = x.abs();
+    if ax < 1e-12 {
+        return if m == 0 { 1.0 } else { 0.0 };
+    }
+    let two_over_x = 2.0 / ax;
+    // j_hi = J_k, j_top = J_(k+1) (unnormalised), k even.
+    let (mut j_top, mut j_hi) = (0.0f64, 1e-300f64);
+    let (mut norm, mut value) = (0.0f64, 0.0f64);
+    let mut k = miller_start(m, ax);
+    while k >= 2 {
+        let j_odd = (k as f64 * two_over_x) * j_hi - j_top; // J_(k-1)
+        let j_even = ((k - 1) as f64 * two_over_x) * j_odd - j_hi; // J_(k-2)
+        if k - 1 == m {
+            value = j_odd;
+        } else if k - 2 == m {
+            value = j_even;
+        }
+        norm += if k > 2 { 2.0 * j_even } else { j_even };
+        (j_top, j_hi) = (j_odd, j_even);
+        if j_hi.abs() > 1e250 {
+            j_top *= 1e-250;
+            j_hi *= 1e-250;
+            norm *= 1e-250;
+            value *= 1e-250;
+        }
+        k -= 2;
+    }
+    let v = value / norm;
+    if x < 0.0 && m % 2 == 1 {
+        -v
     } else {
-        let mut v = vec![0.0; m + 1];
-        bessel_j_all(x, &mut v);
-        v[m]
+        v
     }
 }
 
@@ -180,6 +212,18 @@ mod tests {
         assert!((bessel_j(0, 50.0) - 0.055_812_327_669_251_8).abs() < 1e-12);
         assert_eq!(bessel_j(3, 0.0), 0.0);
         assert_eq!(bessel_j(0, 0.0), 1.0);
+    }
+
+    #[test]
+    fn one_order_agrees_with_all_orders() {
+        let mut all = [0.0; 41];
+        for x in [-7.3, 0.01, 0.5, 3.0, 17.25, 44.0, 120.0] {
+            bessel_j_all(x, &mut all);
+            for (m, want) in all.iter().enumerate() {
+                let got = bessel_j(m, x);
+                assert!((got - want).abs() <= 1e-15 + 1e-12 * want.abs(), "J_{m}({x}): {got} vs {want}");
+            }
+        }
     }
 
     #[test]

@@ -75,19 +75,43 @@ impl ModeSet {
         }
         shape(&self.modes[k], rho, y_m.atan2(x_m))
     }
+
+    /// Every mode's shape at the point (x, y), in mode order, handed to `f(k, shape)`; 0
+    /// outside the surface. The same values as [`ModeSet::shape_at`], with the angle found
+    /// once and the radial factor shared by the cos and sin twins of a pair.
+    pub fn shapes_at(&self, x_m: f64, y_m: f64, mut f: impl FnMut(usize, f64)) {
+        let rho = (x_m * x_m + y_m * y_m).sqrt() / self.radius_m;
+        let theta = y_m.atan2(x_m);
+        let mut last: Option<(usize, f64, f64)> = None;
+        for (k, mode) in self.modes.iter().enumerate() {
+            if rho > 1.0 {
+                f(k, 0.0);
+                continue;
+            }
+            let radial = match last {
+                Some((m, zero, radial)) if m == mode.m && zero == mode.zero => radial,
+                _ => bessel_j(mode.m, mode.zero * rho),
+            };
+            last = Some((mode.m, mode.zero, radial));
+            f(k, radial * angular(mode, theta));
+        }
+    }
 }
 
 /// Mode shape at (rho = r / a, theta).
 pub fn shape(mode: &Mode, rho: f64, theta: f64) -> f64 {
-    let radial = bessel_j(mode.m, mode.zero * rho);
-    let angular = if mode.m == 0 {
+    bessel_j(mode.m, mode.zero * rho) * angular(mode, theta)
+}
+
+/// The angular factor of a mode shape: 1, cos(m theta) or sin(m theta).
+fn angular(mode: &Mode, theta: f64) -> f64 {
+    if mode.m == 0 {
         1.0
     } else if mode.sin {
         (mode.m as f64 * theta).sin()
     } else {
         (mode.m as f64 * theta).cos()
-    };
-    radial * angular
+    }
 }
 
 fn decay_rate(piece: &Piece, freq_hz: f64) -> f64 {
@@ -197,5 +221,27 @@ fn zero_index(m: usize, n: usize) -> usize {
         n - 1
     } else {
         n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kit::Kit;
+
+    #[test]
+    fn shapes_at_a_point_equal_each_mode_shape() {
+        let kit = Kit::builtin_default();
+        for id in ["snare", "ride"] {
+            let set = ModeSet::for_piece(kit.piece(id).unwrap());
+            for (x, y) in [(0.0, 0.0), (0.03, -0.05), (-0.1, 0.02), (0.5, 0.5)] {
+                let mut n = 0;
+                set.shapes_at(x, y, |k, phi| {
+                    assert_eq!(phi, set.shape_at(k, x, y), "{id} mode {k} at ({x}, {y})");
+                    n += 1;
+                });
+                assert_eq!(n, set.modes.len());
+            }
+        }
     }
 }

@@ -3,7 +3,7 @@
 //! A piece is one physical object, so a new strike acts on whatever already rings.
 
 use super::bank::{Bank, Lane, LANES};
-use super::contact::{run_contact, ContactReport, ContactScratch, ModalState, StrikeInput, MAX_CONTACT_S};
+use super::contact::{damped, run_contact, ContactReport, ContactScratch, ModalState, StrikeInput, MAX_CONTACT_S};
 use super::modes::ModeSet;
 use super::wires::WireRattle;
 use super::Strike;
@@ -22,8 +22,9 @@ pub struct Voice {
     centre_weights: Vec<Lane>,
     discrete: Vec<Discrete>,
     sigma: Vec<f64>,
+    /// Contact state: displacement and scaled velocity (q' + sigma q) / wd of each mode.
     q: Vec<Lane>,
-    p: Vec<Lane>,
+    v: Vec<Lane>,
     scratch: ContactScratch,
     /// Output of the contact now under way, sample by sample, and how far it has been played.
     pending_out: Vec<f32>,
@@ -69,7 +70,7 @@ impl Voice {
             discrete: vec![[0.0; 5]; n],
             sigma: vec![0.0; n],
             q: vec![[0.0; LANES]; n.div_ceil(LANES)],
-            p: vec![[0.0; LANES]; n.div_ceil(LANES)],
+            v: vec![[0.0; LANES]; n.div_ceil(LANES)],
             scratch: ContactScratch::new(n),
             pending_out: vec![0.0; contact_cap],
             pending_centre: vec![0.0; contact_cap],
@@ -116,9 +117,7 @@ impl Voice {
         self.damping_factor = factor;
         let t = 1.0 / self.sample_rate_hz;
         for (k, mode) in self.modes.modes.iter().enumerate() {
-            let w0 = 2.0 * PI * mode.freq_hz;
-            let sigma = (mode.sigma * factor).min(0.95 * w0);
-            let wd = (w0 * w0 - sigma * sigma).sqrt();
+            let (sigma, wd) = damped(2.0 * PI * mode.freq_hz, mode.sigma * factor);
             let (s, c) = (wd * t).sin_cos();
             let e = (-sigma * t).exp();
             self.discrete[k] = [c, s, e, wd, sigma];
@@ -163,8 +162,8 @@ impl Voice {
         self.choked = false;
         self.update_damping();
         for k in 0..self.modes.modes.len() {
-            let (q, p) = self.displacement_velocity(k);
-            (self.q[k / LANES][k % LANES], self.p[k / LANES][k % LANES]) = (q as f32, p as f32);
+            let (q, v) = self.displacement_scaled_velocity(k);
+            (self.q[k / LANES][k % LANES], self.v[k / LANES][k % LANES]) = (q as f32, v as f32);
         }
         let input = StrikeInput {
             speed_mps: s.speed_mps as f64,
@@ -176,10 +175,10 @@ impl Voice {
         };
         let state = ModalState {
             q: &mut self.q,
-            p: &mut self.p,
+            v: &mut self.v,
             sigma: &self.sigma,
             out_gain: &self.gains,
-            centre_weight: &self.centre_weights,
+            centre_weight: self.wires.is_some().then_some(&self.centre_weights[..]),
         };
         let (written, report) = run_contact(
             &self.modes,
@@ -193,23 +192,29 @@ impl Voice {
         self.last_contact = report;
         self.pending_len = written;
         self.pending_pos = 0;
-        // Back to the bank: (q, q') at the last contact sample -> (y[n-1], y[n-2]).
+        // Back to the bank: (q, v) at the last contact sample -> (y[n-1], y[n-2]), the free
+        // flight one sample back.
         for k in 0..self.modes.modes.len() {
-            let [c, s_, e, wd, sigma] = self.discrete[k];
-            let (q, p) = (self.q[k / LANES][k % LANES] as f64, self.p[k / LANES][k % LANES] as f64);
-            let b = (p + sigma * q) / wd;
-            self.bank.set_state(k, q as f32, ((q * c - b * s_) / e) as f32);
+            let [c, s_, e, _, _] = self.discrete[k];
+            let (q, v) = (self.q[k / LANES][k % LANES] as f64, self.v[k / LANES][k % LANES] as f64);
+            self.bank.set_state(k, q as f32, ((q * c - v * s_) / e) as f32);
         }
     }
 
-    /// Mode k's displacement and velocity at the last rendered sample, from the bank's
-    /// (y[n-1], y[n-2]) through the exact free solution.
-    fn displacement_velocity(&self, k: usize) -> (f64, f64) {
+    /// Mode k's displacement q and scaled velocity v = (q' + sigma q) / wd at the last rendered
+    /// sample, from the bank's (y[n-1], y[n-2]) through the exact free solution.
+    fn displacement_scaled_velocity(&self, k: usize) -> (f64, f64) {
         let (y1, y2) = self.bank.state(k);
-        let [c, s, e, wd, sigma] = self.discrete[k];
+        let [c, s, e, _, _] = self.discrete[k];
         let (y1, y2) = (y1 as f64, y2 as f64);
-        let b = (y1 * c - y2 * e) / s;
-        (y1, wd * b - sigma * y1)
+        (y1, (y1 * c - y2 * e) / s)
+    }
+
+    /// Mode k's displacement and velocity at the last rendered sample.
+    fn displacement_velocity(&self, k: usize) -> (f64, f64) {
+        let (q, v) = self.displacement_scaled_velocity(k);
+        let [_, _, _, wd, sigma] = self.discrete[k];
+        (q, wd * v - sigma * q)
     }
 
     /// Vibrational energy of mode k now, joules: 1/2 M (q'^2 + w0^2 q^2).
