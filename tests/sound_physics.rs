@@ -177,6 +177,7 @@ fn closed_hihat_decays_at_least_five_times_faster_than_open() {
         let (l, _) = render(&mut e, 96_000);
         rates.push(decay_db_per_s(&l, FS as f64, 6.0, 40.0));
     }
+    println!("hi-hat decay: open {:.0} dB/s, closed {:.0} dB/s ({:.1}x)", rates[0], rates[1], rates[1] / rates[0]);
     assert!(rates[1] >= 5.0 * rates[0], "closed {:.0} dB/s vs open {:.0} dB/s", rates[1], rates[0]);
 }
 
@@ -204,6 +205,10 @@ fn choke_silences_a_cymbal_within_50_ms() {
     let before = rms(&l[23_520..24_000]).max(rms(&r[23_520..24_000]));
     let at_50ms = rms(&l[26_400..26_880]).max(rms(&r[26_400..26_880]));
     let db = 20.0 * (at_50ms / before).log10();
+    println!(
+        "crash 50 ms after the choke: {}",
+        if at_50ms == 0.0 { "silent (every mode asleep)".to_string() } else { format!("{db:.1} dB") }
+    );
     assert!(db < -60.0, "50 ms after the choke the crash is only {db:.1} dB down");
     // And it rings normally again when struck.
     e.push(hit(&kit, "crash", 30_000, 8.0, 0.9));
