@@ -1,0 +1,3 @@
+//! The drummer's body. So far: anthropometry (segment masses, lengths and inertias).
+
+pub mod anthropometry;
