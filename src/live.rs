@@ -21,7 +21,8 @@ use crate::interaction::{encode, Message};
 use crate::kit::Kit;
 use crate::midi::live::{self as midi_live, EventSink, InputStats, LiveEvent, LiveInput, MessageParser, PortMatch};
 use crate::midi::NoteMap;
-use crate::sound::output::{self, AudioOutput, EventFeed, OutputSettings, OutputStats, PerformanceClock};
+use crate::sound::device::{self, AudioOutput};
+use crate::sound::output::{EventFeed, OutputSettings, OutputStats, PerformanceClock};
 use anyhow::Context;
 use crossbeam_channel::Receiver;
 use std::path::PathBuf;
@@ -97,7 +98,7 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
 
     let mut input = LiveInput::new("drumsim")?;
     let port = choose_port(&input.port_names(), opts.midi_port.as_deref())?;
-    let device = output::find_output(opts.audio_device.as_deref()).map_err(|available| match &opts.audio_device {
+    let device = device::find_output(opts.audio_device.as_deref()).map_err(|available| match &opts.audio_device {
         Some(wanted) => anyhow::Error::new(LiveInputError::NoSuchAudioDevice { wanted: wanted.clone(), available }),
         None => anyhow::anyhow!(
             "no default audio output (is JACK or a sound card there?); choose one with --audio, see `drumsim devices`"
@@ -287,8 +288,8 @@ pub fn list_devices() -> anyhow::Result<()> {
         Err(e) => println!("  (unavailable: {e})"),
     }
     println!("Audio outputs:");
-    for host in output::hosts() {
-        match output::host_outputs(host) {
+    for host in device::hosts() {
+        match device::host_outputs(host) {
             Ok(devices) if devices.is_empty() => println!("  {}: (none)", host.name()),
             Ok(devices) => {
                 for d in devices {

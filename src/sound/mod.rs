@@ -5,6 +5,7 @@ pub mod bank;
 pub mod bessel;
 pub mod contact;
 pub mod denormals;
+pub mod device;
 pub mod engine;
 pub mod event;
 pub mod limiter;
