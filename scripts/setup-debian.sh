@@ -3,7 +3,7 @@
 # pkg-config, a JACK server (for `drumsim live` and its end-to-end test), and a Rust toolchain
 # if there is none. Safe to run again; runs apt only for what is missing.
 set -euo pipefail
-packages=(pkg-config libasound2-dev libjack-jackd2-dev jackd2 gcc)
+packages=(pkg-config libasound2-dev libjack-jackd2-dev jackd2 gcc libc6-dev)
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"
 missing=()
