@@ -1,3 +1,6 @@
-//! The drummer's body. So far: anthropometry (segment masses, lengths and inertias).
+//! The drummer's body: anthropometry, the upper-body skeleton and its forward kinematics,
+//! damped-least-squares IK.
 
 pub mod anthropometry;
+pub mod ik;
+pub mod skeleton;
