@@ -3,8 +3,10 @@
 //!
 //! The Jacobian is fixed-size (3 x 12, nalgebra `SMatrix`), built from the world positions of
 //! the joints: a world rotation vector `w_j` at joint `j` moves the tip by `w_j x (tip - p_j)`.
-//! One iteration solves the weighted, damped normal equations
-//! `dq = W^-1 J^T (J W^-1 J^T + lambda^2 I)^-1 e` (a 3 x 3 solve), then pulls every joint
+//! The stick's direction is a second, weaker task (3 more rows: a rotation `w_j` turns the
+//! stick's unit direction by `w_j x dir`), scaled by `dir_weight_m`. One iteration solves the
+//! weighted, damped normal equations `dq = W^-1 J^T (J W^-1 J^T + lambda^2 I)^-1 e` (a 6 x 6
+//! solve), then pulls every joint
 //! toward a rest posture inside the (approximate) null space of the tip task, so a redundant
 //! arm does not drift into odd postures. No allocation; about a microsecond per iteration.
 
@@ -23,11 +25,27 @@ pub struct IkSettings {
     pub posture_gain: f32,
     /// Largest tip error one iteration acts on, metres.
     pub max_step_m: f32,
+    /// Weight of the stick-direction task, metres per radian (0 ignores the direction).
+    pub dir_weight_m: f32,
+}
+
+/// What one arm should do: put the stick tip at `tip`, the stick along `dir` (unit,
+/// butt to tip).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArmTarget {
+    pub tip: Vector,
+    pub dir: Vector,
 }
 
 impl Default for IkSettings {
     fn default() -> Self {
-        IkSettings { damping_m: 0.02, mobility: [0.08, 1.0, 0.8, 0.6], posture_gain: 0.002, max_step_m: 0.05 }
+        IkSettings {
+            damping_m: 0.02,
+            mobility: [0.08, 1.0, 0.8, 0.6],
+            posture_gain: 0.002,
+            max_step_m: 0.05,
+            dir_weight_m: 0.1,
+        }
     }
 }
 
@@ -37,7 +55,7 @@ pub fn arm_joints(side: usize) -> [usize; 4] {
     [b, b + 1, b + 2, b + 3]
 }
 
-type Jac = SMatrix<f32, 3, 12>;
+type Jac = SMatrix<f32, 6, 12>;
 
 fn na(v: Vector) -> Vector3<f32> {
     Vector3::new(v.x, v.y, v.z)
@@ -65,10 +83,12 @@ pub fn arm_step(
     joints: &[Rotation; JOINTS],
     rest: &[Rotation; JOINTS],
     side: usize,
-    target: Vector,
+    target: &ArmTarget,
     s: &IkSettings,
 ) -> [Vector; 4] {
     let tip = skel.tip(pose, side);
+    let dir = pose.rot[super::skeleton::HAND[side]] * skel.stick.dir;
+    let wd = s.dir_weight_m;
     let chain = arm_joints(side);
     let mut jac = Jac::zeros();
     let mut w = SVector::<f32, 12>::zeros();
@@ -77,6 +97,7 @@ pub fn arm_step(
         let link = j + 1;
         let r = na(tip - pose.pos[link]);
         jac.fixed_view_mut::<3, 3>(0, 3 * k).copy_from(&(-skew(r)));
+        jac.fixed_view_mut::<3, 3>(3, 3 * k).copy_from(&(-skew(na(dir)) * wd));
         for c in 0..3 {
             w[3 * k + c] = s.mobility[k];
         }
@@ -85,17 +106,22 @@ pub fn arm_step(
         let e = pose.rot[parent] * rot_error(rest[j], joints[j]);
         posture.fixed_view_mut::<3, 1>(3 * k, 0).copy_from(&(na(e) * s.posture_gain));
     }
-    let mut e = na(target - tip);
-    let n = e.norm();
+    let mut ep = na(target.tip - tip);
+    let n = ep.norm();
     if n > s.max_step_m {
-        e *= s.max_step_m / n;
+        ep *= s.max_step_m / n;
     }
+    let mut ed = na(target.dir.normalize_or_zero() - dir);
+    if target.dir == Vector::ZERO {
+        ed = Vector3::zeros();
+    }
+    let e = SVector::<f32, 6>::new(ep.x, ep.y, ep.z, ed.x * wd, ed.y * wd, ed.z * wd);
     if !e.iter().all(|x| x.is_finite()) {
         return [Vector::ZERO; 4];
     }
     // W^-1 J^T, then A = J W^-1 J^T + lambda^2 I.
-    let wjt = SMatrix::<f32, 12, 3>::from_fn(|r, c| w[r] * jac[(c, r)]);
-    let a = jac * wjt + Matrix3::identity() * (s.damping_m * s.damping_m);
+    let wjt = SMatrix::<f32, 12, 6>::from_fn(|r, c| w[r] * jac[(c, r)]);
+    let a = jac * wjt + SMatrix::<f32, 6, 6>::identity() * (s.damping_m * s.damping_m);
     let Some(a_inv) = a.try_inverse() else {
         return [Vector::ZERO; 4];
     };
@@ -112,7 +138,13 @@ pub fn arm_step(
 
 /// Apply world rotation increments `dw` to an arm's joint rotations: each joint turns by its
 /// increment expressed in its parent's frame (`q <- exp(R_parent^-1 w) q`).
-pub fn apply_arm_step(pose: &WorldPose, joints: &mut [Rotation; JOINTS], side: usize, dw: &[Vector; 4], skel: &Skeleton) {
+pub fn apply_arm_step(
+    pose: &WorldPose,
+    joints: &mut [Rotation; JOINTS],
+    side: usize,
+    dw: &[Vector; 4],
+    skel: &Skeleton,
+) {
     for (k, &j) in arm_joints(side).iter().enumerate() {
         let parent = skel.links[j + 1].parent.unwrap_or(0);
         let local = pose.rot[parent].inverse() * dw[k];
@@ -128,18 +160,18 @@ pub fn solve_arm(
     joints: &mut [Rotation; JOINTS],
     rest: &[Rotation; JOINTS],
     side: usize,
-    target: Vector,
+    target: &ArmTarget,
     s: &IkSettings,
     tol_m: f32,
     max_iter: usize,
 ) -> f32 {
     let mut err = f32::INFINITY;
-    if !target.is_finite() {
+    if !target.tip.is_finite() || !target.dir.is_finite() {
         return err;
     }
     for _ in 0..max_iter {
         let pose = skel.forward(Rotation::IDENTITY, joints);
-        err = (skel.tip(&pose, side) - target).length();
+        err = (skel.tip(&pose, side) - target.tip).length();
         if err <= tol_m {
             break;
         }
@@ -147,7 +179,7 @@ pub fn solve_arm(
         apply_arm_step(&pose, joints, side, &dw, skel);
     }
     let pose = skel.forward(Rotation::IDENTITY, joints);
-    err.min((skel.tip(&pose, side) - target).length())
+    err.min((skel.tip(&pose, side) - target.tip).length())
 }
 
 #[cfg(test)]
@@ -182,10 +214,15 @@ mod tests {
     fn reaches_the_snare_and_the_ride_within_a_millimetre() {
         let s = skeleton();
         let rest = zero_joints();
-        for (side, target) in [(0, Vector::new(-0.12, 0.40, 0.70)), (1, Vector::new(0.45, 0.55, 1.10))] {
+        for (side, tip) in [(0, Vector::new(-0.12, 0.40, 0.70)), (1, Vector::new(0.45, 0.55, 1.10))] {
             let mut joints = zero_joints();
-            let err = solve_arm(&s, &mut joints, &rest, side, target, &IkSettings::default(), 1e-4, 400);
+            let dir = Vector::new(0.0, 1.0, -0.3).normalize();
+            let target = ArmTarget { tip, dir };
+            let err = solve_arm(&s, &mut joints, &rest, side, &target, &IkSettings::default(), 1e-4, 600);
             assert!(err < 1e-3, "side {side}: {err} m left");
+            let pose = s.forward(Rotation::IDENTITY, &joints);
+            let got = pose.rot[crate::body::skeleton::HAND[side]] * s.stick.dir;
+            assert!(got.dot(dir) > 0.98, "stick direction {got} vs {dir}");
         }
     }
 
@@ -194,13 +231,13 @@ mod tests {
         let s = skeleton();
         let rest = zero_joints();
         let mut joints = zero_joints();
-        let target = Vector::new(3.0, 3.0, 3.0);
-        let err = solve_arm(&s, &mut joints, &rest, 1, target, &IkSettings::default(), 1e-4, 300);
+        let target = ArmTarget { tip: Vector::new(3.0, 3.0, 3.0), dir: Vector::Y };
+        let err = solve_arm(&s, &mut joints, &rest, 1, &target, &IkSettings::default(), 1e-4, 300);
         assert!(err.is_finite() && err > 2.0);
         assert!(joints.iter().all(|q| q.is_finite()));
-        let nan = Vector::new(f32::NAN, 0.0, 0.0);
+        let nan = ArmTarget { tip: Vector::new(f32::NAN, 0.0, 0.0), dir: Vector::Y };
         let before = joints;
-        solve_arm(&s, &mut joints, &rest, 1, nan, &IkSettings::default(), 1e-4, 10);
+        solve_arm(&s, &mut joints, &rest, 1, &nan, &IkSettings::default(), 1e-4, 10);
         assert_eq!(before, joints, "a NaN target leaves the arm where it was");
     }
 }

@@ -1,0 +1,131 @@
+//! Stick-kit contacts: onsets found in rapier's narrow phase, turned into strikes.
+//!
+//! A contact starts in the first step where the solver pushes a stick off a piece (a
+//! non-zero normal impulse between the two colliders; a merely predicted contact passing
+//! by does not count) and ends after `RELEASE_S` without impulse, so a stroke pressed into a
+//! head, or chattering on it, is one contact. The speed is the tip's normal velocity in the
+//! step before the impulse, the mass the hand body's effective mass at the tip along the
+//! normal, and the impulse the solver's impulse in the onset step. No allocation.
+
+use super::model::{Model, Surface};
+use super::skeleton::{Skeleton, HAND};
+use crate::interaction::message::{ContactMessage, Limb};
+use rapier3d::prelude::*;
+
+/// Time without impulse that ends a contact, seconds.
+pub const RELEASE_S: f64 = 0.003;
+/// Smallest impulse that counts as touching, N s.
+const MIN_IMPULSE_NS: f32 = 1e-6;
+
+/// A new contact of a stick tip with a kit piece.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Strike {
+    /// Index into the drummer's surfaces (the kit's pieces, in kit order).
+    pub surface: usize,
+    /// 0 left stick, 1 right stick.
+    pub side: usize,
+    pub time_s: f64,
+    pub speed_mps: f32,
+    pub mass_kg: f32,
+    /// Strike point in the surface's coordinates, metres from its centre.
+    pub x_m: f32,
+    pub y_m: f32,
+    pub impulse_ns: f32,
+    /// The contact point in world coordinates.
+    pub point: Vector,
+}
+
+impl Strike {
+    /// The contact message of DESIGN.md section 6 for this strike.
+    pub fn message(&self, surfaces: &[Surface]) -> ContactMessage {
+        ContactMessage {
+            piece: surfaces[self.surface].id.clone(),
+            time_s: self.time_s as f32,
+            speed_mps: self.speed_mps,
+            mass_kg: self.mass_kg,
+            x_m: self.x_m,
+            y_m: self.y_m,
+            impulse_ns: self.impulse_ns,
+            hardness: 1.0,
+            limb: if self.side == 0 { Limb::LeftHand } else { Limb::RightHand },
+        }
+    }
+}
+
+/// Contact state of both sticks against every surface.
+pub struct ContactTracker {
+    /// Last time each (stick, surface) pair had impulse; NaN when not in contact.
+    touching_since: [Vec<f64>; 2],
+    /// Tip velocity at the end of the previous step.
+    prev_tip_vel: [Vector; 2],
+    pub max_penetration_m: f32,
+}
+
+impl ContactTracker {
+    pub fn new(model: &Model) -> ContactTracker {
+        let n = model.surfaces.len();
+        ContactTracker {
+            touching_since: [vec![f64::NAN; n], vec![f64::NAN; n]],
+            prev_tip_vel: [Vector::ZERO; 2],
+            max_penetration_m: 0.0,
+        }
+    }
+
+    /// Look at the contacts after a step ending at `time_s`; report new ones to `sink`.
+    pub fn update(&mut self, model: &Model, skel: &Skeleton, time_s: f64, sink: &mut impl FnMut(Strike)) {
+        let world = &model.world;
+        for side in 0..2 {
+            let hand = &world.bodies[model.bodies[HAND[side]]];
+            let tip = hand.position().transform_point(skel.stick.tip());
+            for pair in world.narrow_phase.contact_pairs_with(model.sticks[side]) {
+                let other = if pair.collider1 == model.sticks[side] { pair.collider2 } else { pair.collider1 };
+                let Some(k) = model.surfaces.iter().position(|s| s.collider == other) else { continue };
+                if let Some((_, c)) = pair.find_deepest_contact() {
+                    self.max_penetration_m = self.max_penetration_m.max(-c.dist);
+                }
+                let impulse = pair.total_impulse_magnitude();
+                if impulse <= MIN_IMPULSE_NS {
+                    continue;
+                }
+                let last = self.touching_since[side][k];
+                if last.is_nan() {
+                    let surface = &model.surfaces[k];
+                    let n = surface.normal;
+                    let point = tip - n * skel.stick.radius_m;
+                    let (x_m, y_m) = surface.local_xy(point);
+                    sink(Strike {
+                        surface: k,
+                        side,
+                        time_s,
+                        speed_mps: (-self.prev_tip_vel[side].dot(n)).max(0.0),
+                        mass_kg: effective_mass(hand, tip, n),
+                        x_m,
+                        y_m,
+                        impulse_ns: impulse,
+                        point,
+                    });
+                }
+                self.touching_since[side][k] = time_s;
+            }
+            for last in self.touching_since[side].iter_mut() {
+                if time_s - *last > RELEASE_S {
+                    *last = f64::NAN;
+                }
+            }
+            self.prev_tip_vel[side] = hand.velocity_at_point(tip);
+        }
+    }
+}
+
+/// Effective mass of a free rigid body at point `p` along direction `n`:
+/// `1 / (1/m + (r x n) . I^-1 (r x n))`.
+pub fn effective_mass(body: &RigidBody, p: Vector, n: Vector) -> f32 {
+    let r = p - body.center_of_mass();
+    let rn = r.cross(n);
+    let mp = body.mass_properties().local_mprops;
+    let frame = *body.rotation() * mp.principal_inertia_local_frame;
+    let local = frame.inverse() * rn;
+    let inv_i = mp.inv_principal_inertia;
+    let ang = local.x * local.x * inv_i.x + local.y * local.y * inv_i.y + local.z * local.z * inv_i.z;
+    1.0 / (mp.inv_mass + ang)
+}

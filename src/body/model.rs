@@ -1,0 +1,173 @@
+//! The rapier world of the drummer: one rigid body per link, spherical impulse joints with
+//! three angular velocity motors each (the PD's implicit damping), the sticks as capsule
+//! colliders on the hand bodies, and the kit's pieces as fixed colliders.
+//!
+//! Only the sticks and the kit collide (collision groups), so the broad and narrow phases
+//! see a handful of pairs. Body links carry their mass as `additional_mass_properties`
+//! rather than as colliders.
+
+use super::skeleton::{Skeleton, WorldPose, HAND, LINKS};
+use crate::kit::{Kit, PieceKind};
+use rapier3d::prelude::*;
+
+/// Physics step, seconds (10 kHz).
+pub const DT_S: f32 = 1e-4;
+
+/// Membership and filter bits: sticks meet the kit and nothing else.
+const STICKS: Group = Group::GROUP_1;
+const KIT: Group = Group::GROUP_2;
+
+/// Thickness of a drum's collider below its playing surface, and of a cymbal.
+const HEAD_DEPTH_M: f32 = 0.04;
+const PLATE_THICKNESS_M: f32 = 0.004;
+
+/// Coefficients of restitution of a stick on a head and on a cymbal.
+const HEAD_RESTITUTION: f32 = 0.5;
+const PLATE_RESTITUTION: f32 = 0.3;
+
+/// A kit piece as the body sees it: a collider and its playing surface.
+#[derive(Debug, Clone)]
+pub struct Surface {
+    pub id: String,
+    pub collider: ColliderHandle,
+    pub center: Vector,
+    pub normal: Vector,
+    /// Tangent axes of the surface: strike points are (x, y) along them.
+    pub u: Vector,
+    pub v: Vector,
+    pub radius_m: f32,
+}
+
+impl Surface {
+    /// Strike point in the surface's own coordinates, metres from its centre.
+    pub fn local_xy(&self, p: Vector) -> (f32, f32) {
+        let d = p - self.center;
+        (d.dot(self.u), d.dot(self.v))
+    }
+
+    /// Height of `p` above the playing surface (negative below it).
+    pub fn height(&self, p: Vector) -> f32 {
+        (p - self.center).dot(self.normal)
+    }
+}
+
+/// Tangent basis of a surface: u is the world +x laid onto the surface (world +y where the
+/// surface faces sideways), v = n x u. The direct mode uses the same axes.
+pub fn surface_basis(n: Vector) -> (Vector, Vector) {
+    let pick = if n.x.abs() > 0.9 { Vector::Y } else { Vector::X };
+    let u = (pick - n * pick.dot(n)).normalize();
+    (u, n.cross(u))
+}
+
+/// The built world and the handles the controller needs.
+pub struct Model {
+    pub world: PhysicsWorld,
+    pub bodies: [RigidBodyHandle; LINKS],
+    /// `joints[j]` joins link j + 1 to its parent.
+    pub joints: Vec<ImpulseJointHandle>,
+    pub sticks: [ColliderHandle; 2],
+    pub surfaces: Vec<Surface>,
+}
+
+/// Mass properties of a link in its own frame (hands include their stick).
+pub fn link_mass(skel: &Skeleton, i: usize) -> MassProperties {
+    let l = &skel.links[i];
+    let mut m = MassProperties::with_principal_inertia_frame(l.com, l.mass_kg, l.inertia, l.inertia_frame);
+    if HAND.contains(&i) {
+        let s = &skel.stick;
+        let len = s.to_tip_m + s.to_butt_m;
+        let com = (s.tip() + s.butt()) * 0.5;
+        let axial = 0.5 * s.mass_kg * s.radius_m * s.radius_m;
+        let transverse = s.mass_kg * len * len / 12.0;
+        let frame = Rotation::from_rotation_arc(Vector::Y, s.dir);
+        m += MassProperties::with_principal_inertia_frame(
+            com,
+            s.mass_kg,
+            Vector::new(transverse, axial, transverse),
+            frame,
+        );
+    }
+    m
+}
+
+/// Build the world with the body in `pose` (whose joint rotations are `joint_rot`).
+pub fn build(skel: &Skeleton, pose: &WorldPose, kit: &Kit, solver_iterations: usize) -> Model {
+    let mut world = PhysicsWorld::new();
+    world.gravity = Vector::new(0.0, 0.0, -9.81);
+    world.integration_parameters.dt = DT_S;
+    world.integration_parameters.num_solver_iterations = solver_iterations.max(1);
+    world.integration_parameters.warmstart_joints = true;
+    let mut bodies = [RigidBodyHandle::invalid(); LINKS];
+    for i in 0..LINKS {
+        let builder = if i == 0 { RigidBodyBuilder::fixed() } else { RigidBodyBuilder::dynamic() };
+        let rb = builder
+            .pose(Pose::from_parts(pose.pos[i], pose.rot[i]))
+            .additional_mass_properties(link_mass(skel, i))
+            .can_sleep(false)
+            .build();
+        bodies[i] = world.bodies.insert(rb);
+    }
+    let mut joints = Vec::with_capacity(LINKS - 1);
+    for i in 1..LINKS {
+        let parent = skel.links[i].parent.unwrap_or(0);
+        let mut joint = SphericalJointBuilder::new()
+            .local_anchor1(skel.links[i].offset)
+            .local_anchor2(Vector::ZERO)
+            .contacts_enabled(false)
+            .build();
+        for axis in [JointAxis::AngX, JointAxis::AngY, JointAxis::AngZ] {
+            joint.data.set_motor_model(axis, MotorModel::ForceBased);
+            joint.data.set_motor_velocity(axis, 0.0, 0.0);
+        }
+        joints.push(world.impulse_joints.insert(bodies[parent], bodies[i], joint, true));
+    }
+    let s = &skel.stick;
+    let mut sticks = [ColliderHandle::invalid(); 2];
+    for (side, &h) in HAND.iter().enumerate() {
+        let c = ColliderBuilder::capsule_from_endpoints(s.butt(), s.tip(), s.radius_m)
+            .density(0.0)
+            .friction(0.4)
+            .restitution(HEAD_RESTITUTION)
+            .collision_groups(InteractionGroups::new(STICKS, KIT, InteractionTestMode::And))
+            .build();
+        sticks[side] = world.colliders.insert_with_parent(c, bodies[h], &mut world.bodies);
+    }
+    let kit_body = world.bodies.insert(RigidBodyBuilder::fixed().build());
+    let mut surfaces = Vec::with_capacity(kit.pieces.len());
+    for piece in &kit.pieces {
+        let n = Vector::from(piece.normal).normalize();
+        let center = Vector::from(piece.position_m);
+        let (half, restitution) = match piece.kind {
+            PieceKind::Membrane => (0.5 * HEAD_DEPTH_M, HEAD_RESTITUTION),
+            PieceKind::Plate => (0.5 * PLATE_THICKNESS_M, PLATE_RESTITUTION),
+        };
+        let placed = Pose::from_parts(center - n * half, Rotation::from_rotation_arc(Vector::Y, n));
+        let c = ColliderBuilder::cylinder(half, piece.radius_m)
+            .position(placed)
+            .friction(0.4)
+            .restitution(restitution)
+            .collision_groups(InteractionGroups::new(KIT, STICKS, InteractionTestMode::And))
+            .build();
+        let collider = world.colliders.insert_with_parent(c, kit_body, &mut world.bodies);
+        let (u, v) = surface_basis(n);
+        surfaces.push(Surface { id: piece.id.clone(), collider, center, normal: n, u, v, radius_m: piece.radius_m });
+    }
+    Model { world, bodies, joints, sticks, surfaces }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn surface_basis_is_orthonormal_and_faces_the_drummer_on_the_snare() {
+        for n in [Vector::Z, Vector::new(0.15, -0.25, 0.96).normalize(), -Vector::Y, Vector::X] {
+            let (u, v) = surface_basis(n);
+            assert!(u.dot(n).abs() < 1e-6 && v.dot(n).abs() < 1e-6 && u.dot(v).abs() < 1e-6);
+            assert!((u.length() - 1.0).abs() < 1e-6 && (v.length() - 1.0).abs() < 1e-6);
+        }
+        // On a flat drum, +y of the surface is forward, so the direct mode's -y points at the drummer.
+        let (u, v) = surface_basis(Vector::Z);
+        assert!(u.x > 0.99 && v.y > 0.99);
+    }
+}

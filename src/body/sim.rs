@@ -1,0 +1,395 @@
+//! The drummer: the rapier body, its PD joints and joint limits, the kinematic layer and the
+//! three control modes, stepped at 10 kHz (Algorithm 2 of Hybrid Inverse Motion Control).
+//!
+//! Per physics step: read the joint states of the dynamic layer; form joint targets (from
+//! the IK in `himc`, from a joint trajectory in `id`); set the PD motors; add joint-limit
+//! torques; step rapier; turn new stick-kit contacts into strikes. `ik` moves only the
+//! kinematic layer. A step allocates nothing.
+
+use super::anthropometry::{Anthropometry, BodyError, BodySettings};
+use super::contacts::{ContactTracker, Strike};
+use super::ik::{apply_arm_step, arm_joints, arm_step, rot_error, solve_arm, ArmTarget, IkSettings};
+use super::limits::LimitError;
+use super::limits::{CompiledLimit, JointLimit};
+use super::model::{self, Model, DT_S};
+use super::pd::{gains, JointGains};
+use super::skeleton::{Skeleton, WorldPose, JOINTS, LINKS};
+use crate::kit::Kit;
+use rapier3d::prelude::*;
+
+/// How stick-tip targets become motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// Kinematic IK only: no dynamics, no contacts.
+    Ik,
+    /// PD tracking of joint-space targets (inverse dynamics baseline).
+    Id,
+    /// IK inside every physics step, then the same PD (Hybrid Inverse Motion Control).
+    Himc,
+}
+
+impl Mode {
+    pub const ALL: [Mode; 3] = [Mode::Himc, Mode::Id, Mode::Ik];
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Ik => "ik",
+            Mode::Id => "id",
+            Mode::Himc => "himc",
+        }
+    }
+}
+
+/// Settings of the simulated drummer.
+#[derive(Debug, Clone)]
+pub struct DrummerSettings {
+    pub body: BodySettings,
+    /// PD natural frequency, Hz, and damping ratio.
+    pub natural_hz: f32,
+    pub damping_ratio: f32,
+    /// Natural frequency of the joint-limit restoring torque, Hz.
+    pub limit_hz: f32,
+    pub solver_iterations: usize,
+    pub ik: IkSettings,
+    /// Gain of HIMC's task-space feedback (fraction of the simulated tip error fed back).
+    pub feedback: f32,
+    /// One limit per joint; `None` for no limits.
+    pub limits: Option<Vec<JointLimit>>,
+}
+
+impl Default for DrummerSettings {
+    fn default() -> Self {
+        DrummerSettings {
+            body: BodySettings::default(),
+            natural_hz: 12.0,
+            damping_ratio: 1.0,
+            limit_hz: 8.0,
+            solver_iterations: 2,
+            ik: IkSettings::default(),
+            feedback: 1.0,
+            limits: None,
+        }
+    }
+}
+
+/// A drummer that cannot be built from its settings.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DrummerError {
+    #[error(transparent)]
+    Body(#[from] BodyError),
+    #[error("joint limits: {0}")]
+    Limits(#[from] LimitError),
+    #[error("drummer settings: {key} = {value} is outside {range}")]
+    Setting { key: &'static str, value: f32, range: &'static str },
+}
+
+impl DrummerSettings {
+    /// Reject gains and counts that would make no sense (or blow the simulation up).
+    pub fn validate(&self) -> Result<(), DrummerError> {
+        let check = |key: &'static str, value: f32, min: f32, max: f32, range: &'static str| {
+            if (min..=max).contains(&value) {
+                Ok(())
+            } else {
+                Err(DrummerError::Setting { key, value, range })
+            }
+        };
+        check("natural_hz", self.natural_hz, 0.5, 60.0, "0.5..=60 Hz")?;
+        check("damping_ratio", self.damping_ratio, 0.1, 5.0, "0.1..=5")?;
+        check("limit_hz", self.limit_hz, 0.0, 30.0, "0..=30 Hz")?;
+        check("solver_iterations", self.solver_iterations as f32, 1.0, 16.0, "1..=16")?;
+        check("feedback", self.feedback, 0.0, 2.0, "0..=2")?;
+        check("ik.damping_m", self.ik.damping_m, 1e-4, 0.5, "1e-4..=0.5 m")?;
+        check("ik.posture_gain", self.ik.posture_gain, 0.0, 0.5, "0..=0.5")?;
+        check("ik.max_step_m", self.ik.max_step_m, 1e-3, 0.5, "1e-3..=0.5 m")?;
+        for (i, m) in self.ik.mobility.iter().enumerate() {
+            let key = ["ik.mobility[0]", "ik.mobility[1]", "ik.mobility[2]", "ik.mobility[3]"][i];
+            check(key, *m, 1e-3, 10.0, "1e-3..=10")?;
+        }
+        if let Some(l) = &self.limits {
+            if l.len() != JOINTS {
+                return Err(DrummerError::Setting { key: "limits", value: l.len() as f32, range: "exactly 11 joints" });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Where the sticks wait between strokes: tip heights above the snare (left) and the
+/// hi-hat (right), metres.
+pub const READY_HEIGHT_M: f32 = 0.10;
+
+/// The simulated drummer.
+pub struct Drummer {
+    pub skel: Skeleton,
+    pub settings: DrummerSettings,
+    model: Model,
+    gains: [JointGains; JOINTS],
+    /// Posture the IK pulls toward, and the PD's target for trunk, neck and head.
+    pub rest: [Rotation; JOINTS],
+    /// The kinematic layer's joint rotations (IK state).
+    kin: [Rotation; JOINTS],
+    step: u64,
+    contacts: ContactTracker,
+    limits: Vec<CompiledLimit>,
+    /// Largest joint-limit violation seen (normalised ellipsoid radius - 1), for tests.
+    pub max_limit_excess: f32,
+}
+
+/// Joint-space targets of one step for `id` mode: rotations and angular velocities
+/// (parent frame) for every joint.
+#[derive(Debug, Clone, Copy)]
+pub struct JointTargets {
+    pub rot: [Rotation; JOINTS],
+    pub vel: [Vector; JOINTS],
+}
+
+impl Drummer {
+    /// Build the drummer in its ready pose above `kit`: left tip over the snare, right over
+    /// the hi-hat (or the nearest pieces by those names' absence: the first two pieces).
+    pub fn new(kit: &Kit, settings: DrummerSettings) -> Result<Drummer, DrummerError> {
+        settings.validate()?;
+        let anthro = Anthropometry::new(settings.body)?;
+        let skel = Skeleton::new(&anthro);
+        let rest = ready_pose(&skel, kit, &settings.ik);
+        let pose = skel.forward(Rotation::IDENTITY, &rest);
+        let model = model::build(&skel, &pose, kit, settings.solver_iterations);
+        let gains = gains(&skel, &pose, settings.natural_hz, settings.damping_ratio);
+        let contacts = ContactTracker::new(&model);
+        let limits = match &settings.limits {
+            Some(l) => l.iter().map(|l| l.compile()).collect::<Result<Vec<_>, _>>()?,
+            None => Vec::new(),
+        };
+        Ok(Drummer { skel, settings, model, gains, rest, kin: rest, step: 0, contacts, limits, max_limit_excess: 0.0 })
+    }
+
+    pub fn time_s(&self) -> f64 {
+        self.step as f64 * DT_S as f64
+    }
+
+    pub fn steps(&self) -> u64 {
+        self.step
+    }
+
+    pub fn surfaces(&self) -> &[model::Surface] {
+        &self.model.surfaces
+    }
+
+    /// The kinematic layer's joint rotations.
+    pub fn kinematic_joints(&self) -> &[Rotation; JOINTS] {
+        &self.kin
+    }
+
+    /// World pose of the dynamic layer.
+    pub fn sim_pose(&self) -> WorldPose {
+        let mut pos = [Vector::ZERO; LINKS];
+        let mut rot = [Rotation::IDENTITY; LINKS];
+        for i in 0..LINKS {
+            let b = &self.model.world.bodies[self.model.bodies[i]];
+            pos[i] = b.translation();
+            rot[i] = *b.rotation();
+        }
+        WorldPose { pos, rot }
+    }
+
+    /// Joint rotations of the dynamic layer.
+    pub fn sim_joints(&self) -> [Rotation; JOINTS] {
+        joints_of(&self.skel, &self.sim_pose())
+    }
+
+    /// Stick tips of the dynamic layer (or of the kinematic layer in `ik` mode).
+    pub fn tips(&self, mode: Mode) -> [Vector; 2] {
+        let pose = match mode {
+            Mode::Ik => self.skel.forward(Rotation::IDENTITY, &self.kin),
+            _ => self.sim_pose(),
+        };
+        [self.skel.tip(&pose, 0), self.skel.tip(&pose, 1)]
+    }
+
+    /// Stick directions of the kinematic layer (unit, butt to tip).
+    pub fn stick_dirs(&self) -> [Vector; 2] {
+        let pose = self.skel.forward(Rotation::IDENTITY, &self.kin);
+        [0, 1].map(|side| pose.rot[super::skeleton::HAND[side]] * self.skel.stick.dir)
+    }
+
+    /// Kinetic energy of the moving links plus their potential energy above the floor, J.
+    pub fn energy_j(&self) -> f32 {
+        let g = 9.81;
+        let mut e = 0.0;
+        for i in 1..LINKS {
+            let b = &self.model.world.bodies[self.model.bodies[i]];
+            e += b.kinetic_energy() + b.mass() * g * b.center_of_mass().z;
+        }
+        e
+    }
+
+    /// Largest penetration of a stick into a kit piece seen so far, metres.
+    pub fn max_penetration_m(&self) -> f32 {
+        self.contacts.max_penetration_m
+    }
+
+    /// Push a link (for perturbation trials): a torque in world axes, held until the next
+    /// step's torques are set.
+    pub fn disturb(&mut self, link: usize, torque: Vector) {
+        if let Some(b) = self.model.world.bodies.get_mut(self.model.bodies[link]) {
+            b.add_torque(torque, true);
+        }
+    }
+
+    /// One 10 kHz step toward stick-tip targets (`ik` and `himc`). New strikes go to `sink`.
+    pub fn step_tips(&mut self, mode: Mode, tips: &[ArmTarget; 2], sink: &mut impl FnMut(Strike)) {
+        let before = self.kin;
+        // Kinematic layer: one DLS iteration per arm toward the targets.
+        let pose_k = self.skel.forward(Rotation::IDENTITY, &self.kin);
+        for (side, tip) in tips.iter().enumerate() {
+            let dw = arm_step(&self.skel, &pose_k, &self.kin, &self.rest, side, tip, &self.settings.ik);
+            apply_arm_step(&pose_k, &mut self.kin, side, &dw, &self.skel);
+        }
+        self.clamp_kinematic_limits();
+        if mode == Mode::Ik {
+            self.step += 1;
+            return;
+        }
+        let mut targets = JointTargets { rot: self.kin, vel: [Vector::ZERO; JOINTS] };
+        for j in 0..JOINTS {
+            targets.vel[j] = rot_error(self.kin[j], before[j]) / DT_S;
+        }
+        if mode == Mode::Himc {
+            // Task-space feedback: the IK of the simulated arm's tip error, on top of the
+            // kinematic targets.
+            let pose_s = self.sim_pose();
+            let joints_s = joints_of(&self.skel, &pose_s);
+            let mut fb = self.settings.ik;
+            fb.posture_gain = 0.0;
+            for (side, tip) in tips.iter().enumerate() {
+                let dw = arm_step(&self.skel, &pose_s, &joints_s, &self.rest, side, tip, &fb);
+                for (k, &j) in arm_joints(side).iter().enumerate() {
+                    let parent = self.skel.links[j + 1].parent.unwrap_or(0);
+                    let local = pose_s.rot[parent].inverse() * (dw[k] * self.settings.feedback);
+                    targets.rot[j] = Rotation::from_scaled_axis(local) * targets.rot[j];
+                }
+            }
+        }
+        self.physics_step(&targets, sink);
+    }
+
+    /// One 10 kHz step of `id` mode: PD toward joint targets. The kinematic layer follows
+    /// the targets.
+    pub fn step_joints(&mut self, targets: &JointTargets, sink: &mut impl FnMut(Strike)) {
+        self.kin = targets.rot;
+        self.physics_step(targets, sink);
+    }
+
+    fn clamp_kinematic_limits(&mut self) {
+        for (q, limit) in self.kin.iter_mut().zip(&self.limits) {
+            let nq = nalgebra_quat(*q);
+            if !limit.contains(&nq) {
+                let n = limit.nearest_allowed(&nq);
+                *q = Rotation::from_xyzw(n.i, n.j, n.k, n.w);
+            }
+        }
+    }
+
+    fn physics_step(&mut self, targets: &JointTargets, sink: &mut impl FnMut(Strike)) {
+        let pose = self.sim_pose();
+        let world = &mut self.model.world;
+        for i in 1..LINKS {
+            if let Some(b) = world.bodies.get_mut(self.model.bodies[i]) {
+                b.reset_torques(false);
+            }
+        }
+        let limit_k = (std::f32::consts::TAU * self.settings.limit_hz).powi(2);
+        for j in 0..JOINTS {
+            let link = j + 1;
+            let parent = self.skel.links[link].parent.unwrap_or(0);
+            let q = pose.rot[parent].inverse() * pose.rot[link];
+            let g = &self.gains[j];
+            let err = rot_error(targets.rot[j], q);
+            let v = targets.vel[j] + err * g.ks_over_kd;
+            let v = if v.is_finite() { v } else { Vector::ZERO };
+            if let Some(joint) = world.impulse_joints.get_mut(self.model.joints[j], false) {
+                for (axis, (ja, va)) in
+                    [JointAxis::AngX, JointAxis::AngY, JointAxis::AngZ].into_iter().zip([v.x, v.y, v.z]).enumerate()
+                {
+                    joint.data.set_motor_velocity(ja, va, g.kd[axis]);
+                }
+            }
+            if let Some(limit) = self.limits.get(j) {
+                let excess = limit.normalized_radius(&nalgebra_quat(q)) - 1.0;
+                if excess > self.max_limit_excess {
+                    self.max_limit_excess = excess;
+                }
+                if let Some(r) = limit.restoring(&nalgebra_quat(q)) {
+                    let r = Vector::new(r.x, r.y, r.z);
+                    let i_mean = (g.inertia[0] + g.inertia[1] + g.inertia[2]) / 3.0;
+                    let torque = pose.rot[parent] * (r * (limit_k * i_mean));
+                    if let Some(b) = world.bodies.get_mut(self.model.bodies[link]) {
+                        b.add_torque(torque, false);
+                    }
+                    if let Some(b) = world.bodies.get_mut(self.model.bodies[parent]) {
+                        b.add_torque(-torque, false);
+                    }
+                }
+            }
+        }
+        world.step();
+        self.step += 1;
+        let t = self.time_s();
+        self.contacts.update(&self.model, &self.skel, t, sink);
+    }
+}
+
+/// nalgebra's quaternion for a glam one (the joint-limit maths is nalgebra).
+pub fn nalgebra_quat(q: Rotation) -> nalgebra::UnitQuaternion<f32> {
+    nalgebra::UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(q.w, q.x, q.y, q.z))
+}
+
+/// Joint rotations of a world pose.
+pub fn joints_of(skel: &Skeleton, pose: &WorldPose) -> [Rotation; JOINTS] {
+    let mut q = [Rotation::IDENTITY; JOINTS];
+    for (j, qj) in q.iter_mut().enumerate() {
+        let link = j + 1;
+        let parent = skel.links[link].parent.unwrap_or(0);
+        *qj = (pose.rot[parent].inverse() * pose.rot[link]).normalize();
+    }
+    q
+}
+
+/// The ready pose: IK from a relaxed seated posture to tips `READY_HEIGHT_M` above the
+/// snare (left hand) and the hi-hat (right hand, crossed over as most drummers play).
+pub fn ready_pose(skel: &Skeleton, kit: &Kit, ik: &IkSettings) -> [Rotation; JOINTS] {
+    let relaxed = relaxed_pose();
+    let mut joints = relaxed;
+    for (side, id) in [(0, "snare"), (1, "hihat")] {
+        let Some(piece) = kit.piece(id).or(kit.pieces.get(side)) else { continue };
+        let n = Vector::from(piece.normal).normalize();
+        let center = Vector::from(piece.position_m);
+        let target = ArmTarget { tip: center + n * READY_HEIGHT_M, dir: stick_dir(side, center, n) };
+        solve_arm(skel, &mut joints, &relaxed, side, &target, ik, 1e-4, 3000);
+    }
+    joints
+}
+
+/// The direction a stick points when its tip rests on a piece: from the player's shoulder
+/// toward the piece, laid on the surface and tilted 17 degrees into it.
+pub fn stick_dir(side: usize, center: Vector, normal: Vector) -> Vector {
+    let shoulder = Vector::new(if side == 0 { -0.19 } else { 0.19 }, 0.0, center.z);
+    let h = (center - shoulder).normalize_or(Vector::Y);
+    let t = (h - normal * h.dot(normal)).normalize_or(Vector::Y);
+    (t - normal * 0.3).normalize()
+}
+
+/// A seated drummer's relaxed posture: elbows bent, forearms forward, sticks toward the kit.
+pub fn relaxed_pose() -> [Rotation; JOINTS] {
+    use super::skeleton::ARM_BASE;
+    let mut q = [Rotation::IDENTITY; JOINTS];
+    for (side, &base) in ARM_BASE.iter().enumerate() {
+        let s = if side == 0 { -1.0 } else { 1.0 };
+        // Shoulder: upper arm a little forward and out; elbow bent ~70 degrees; wrist level.
+        q[base] = Rotation::from_rotation_z(-0.2 * s)
+            * Rotation::from_rotation_x(0.35)
+            * Rotation::from_rotation_y(-0.25 * s);
+        q[base + 1] = Rotation::from_rotation_x(1.2);
+        q[base + 2] = Rotation::from_rotation_x(-0.1);
+    }
+    q
+}
