@@ -79,7 +79,7 @@ impl ContactTracker {
             let tip = hand.position().transform_point(skel.stick.tip());
             for pair in world.narrow_phase.contact_pairs_with(model.sticks[side]) {
                 let other = if pair.collider1 == model.sticks[side] { pair.collider2 } else { pair.collider1 };
-                let Some(k) = model.surfaces.iter().position(|s| s.collider == other) else { continue };
+                let Some(k) = model.surface_of(other) else { continue };
                 if let Some((_, c)) = pair.find_deepest_contact() {
                     self.max_penetration_m = self.max_penetration_m.max(-c.dist);
                 }

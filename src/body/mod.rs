@@ -9,3 +9,5 @@ pub mod model;
 pub mod pd;
 pub mod sim;
 pub mod skeleton;
+pub mod strokes;
+pub mod trials;

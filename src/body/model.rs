@@ -67,7 +67,21 @@ pub struct Model {
     pub joints: Vec<ImpulseJointHandle>,
     pub sticks: [ColliderHandle; 2],
     pub surfaces: Vec<Surface>,
+    /// Which surface each kit collider belongs to (a hoop is several colliders).
+    pub owners: Vec<(ColliderHandle, usize)>,
 }
+
+impl Model {
+    /// The surface a kit collider belongs to.
+    pub fn surface_of(&self, c: ColliderHandle) -> Option<usize> {
+        self.owners.iter().find(|(h, _)| *h == c).map(|(_, k)| *k)
+    }
+}
+
+/// Segments, height above the head and tube radius of a drum's hoop.
+const HOOP_SEGMENTS: usize = 16;
+const HOOP_HEIGHT_M: f32 = 0.012;
+const HOOP_RADIUS_M: f32 = 0.004;
 
 /// Mass properties of a link in its own frame (hands include their stick).
 pub fn link_mass(skel: &Skeleton, i: usize) -> MassProperties {
@@ -134,6 +148,8 @@ pub fn build(skel: &Skeleton, pose: &WorldPose, kit: &Kit, solver_iterations: us
     }
     let kit_body = world.bodies.insert(RigidBodyBuilder::fixed().build());
     let mut surfaces = Vec::with_capacity(kit.pieces.len());
+    let mut owners = Vec::with_capacity(kit.pieces.len() + HOOP_SEGMENTS);
+    let kit_groups = InteractionGroups::new(KIT, STICKS, InteractionTestMode::And);
     for piece in &kit.pieces {
         let n = Vector::from(piece.normal).normalize();
         let center = Vector::from(piece.position_m);
@@ -141,18 +157,48 @@ pub fn build(skel: &Skeleton, pose: &WorldPose, kit: &Kit, solver_iterations: us
             PieceKind::Membrane => (0.5 * HEAD_DEPTH_M, HEAD_RESTITUTION),
             PieceKind::Plate => (0.5 * PLATE_THICKNESS_M, PLATE_RESTITUTION),
         };
-        let placed = Pose::from_parts(center - n * half, Rotation::from_rotation_arc(Vector::Y, n));
-        let c = ColliderBuilder::cylinder(half, piece.radius_m)
-            .position(placed)
-            .friction(0.4)
-            .restitution(restitution)
-            .collision_groups(InteractionGroups::new(KIT, STICKS, InteractionTestMode::And))
-            .build();
-        let collider = world.colliders.insert_with_parent(c, kit_body, &mut world.bodies);
         let (u, v) = surface_basis(n);
+        let drum = piece.id.strip_suffix("_rim").and_then(|d| kit.piece(d)).filter(|d| d.kind == PieceKind::Membrane);
+        let k = surfaces.len();
+        let collider = if let Some(drum) = drum {
+            // A drum's hoop (`<drum>_rim`): a ring of capsules just outside the drum's head
+            // and a little above it, where rim shots land. The piece's own position and
+            // radius only place its sound.
+            let dn = Vector::from(drum.normal).normalize();
+            let dc = Vector::from(drum.position_m) + dn * HOOP_HEIGHT_M;
+            let (du, dv) = surface_basis(dn);
+            let r = drum.radius_m + HOOP_RADIUS_M;
+            let at = |i: usize| {
+                let a = std::f32::consts::TAU * i as f32 / HOOP_SEGMENTS as f32;
+                dc + (du * a.cos() + dv * a.sin()) * r
+            };
+            let mut first = None;
+            for i in 0..HOOP_SEGMENTS {
+                let c = ColliderBuilder::capsule_from_endpoints(at(i), at(i + 1), HOOP_RADIUS_M)
+                    .friction(0.4)
+                    .restitution(PLATE_RESTITUTION)
+                    .collision_groups(kit_groups)
+                    .build();
+                let h = world.colliders.insert_with_parent(c, kit_body, &mut world.bodies);
+                owners.push((h, k));
+                first.get_or_insert(h);
+            }
+            first.unwrap_or(ColliderHandle::invalid())
+        } else {
+            let placed = Pose::from_parts(center - n * half, Rotation::from_rotation_arc(Vector::Y, n));
+            let c = ColliderBuilder::cylinder(half, piece.radius_m)
+                .position(placed)
+                .friction(0.4)
+                .restitution(restitution)
+                .collision_groups(kit_groups)
+                .build();
+            let h = world.colliders.insert_with_parent(c, kit_body, &mut world.bodies);
+            owners.push((h, k));
+            h
+        };
         surfaces.push(Surface { id: piece.id.clone(), collider, center, normal: n, u, v, radius_m: piece.radius_m });
     }
-    Model { world, bodies, joints, sticks, surfaces }
+    Model { world, bodies, joints, sticks, surfaces, owners }
 }
 
 #[cfg(test)]

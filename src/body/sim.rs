@@ -131,6 +131,12 @@ pub struct Drummer {
     step: u64,
     contacts: ContactTracker,
     limits: Vec<CompiledLimit>,
+    /// Mass and local centre of mass of every link (hands with their sticks).
+    link_mass: [(f32, Vector); LINKS],
+    /// External torques on links, world axes.
+    disturbance: [Vector; LINKS],
+    /// `in_subtree[j][i]`: link i hangs from joint j.
+    in_subtree: [[bool; LINKS]; JOINTS],
     /// Largest joint-limit violation seen (normalised ellipsoid radius - 1), for tests.
     pub max_limit_excess: f32,
 }
@@ -159,7 +165,26 @@ impl Drummer {
             Some(l) => l.iter().map(|l| l.compile()).collect::<Result<Vec<_>, _>>()?,
             None => Vec::new(),
         };
-        Ok(Drummer { skel, settings, model, gains, rest, kin: rest, step: 0, contacts, limits, max_limit_excess: 0.0 })
+        let link_mass = std::array::from_fn(|i| {
+            let m = model::link_mass(&skel, i);
+            (m.mass(), m.local_com)
+        });
+        let in_subtree = std::array::from_fn(|j| std::array::from_fn(|i| super::pd::descends_from(&skel, i, j + 1)));
+        Ok(Drummer {
+            skel,
+            settings,
+            model,
+            gains,
+            rest,
+            kin: rest,
+            step: 0,
+            contacts,
+            limits,
+            link_mass,
+            in_subtree,
+            disturbance: [Vector::ZERO; LINKS],
+            max_limit_excess: 0.0,
+        })
     }
 
     pub fn time_s(&self) -> f64 {
@@ -205,6 +230,18 @@ impl Drummer {
         [self.skel.tip(&pose, 0), self.skel.tip(&pose, 1)]
     }
 
+    /// Largest separation of a joint's two anchors in the dynamic layer, metres (the
+    /// constraint solver's error).
+    pub fn joint_gap_m(&self) -> f32 {
+        let pose = self.sim_pose();
+        (1..LINKS)
+            .map(|i| {
+                let p = self.skel.links[i].parent.unwrap_or(0);
+                (pose.pos[p] + pose.rot[p] * self.skel.links[i].offset - pose.pos[i]).length()
+            })
+            .fold(0.0, f32::max)
+    }
+
     /// Stick directions of the kinematic layer (unit, butt to tip).
     pub fn stick_dirs(&self) -> [Vector; 2] {
         let pose = self.skel.forward(Rotation::IDENTITY, &self.kin);
@@ -227,11 +264,11 @@ impl Drummer {
         self.contacts.max_penetration_m
     }
 
-    /// Push a link (for perturbation trials): a torque in world axes, held until the next
-    /// step's torques are set.
-    pub fn disturb(&mut self, link: usize, torque: Vector) {
-        if let Some(b) = self.model.world.bodies.get_mut(self.model.bodies[link]) {
-            b.add_torque(torque, true);
+    /// Push a link with an external torque (world axes), held until changed (perturbation
+    /// trials: breathing, a bump).
+    pub fn set_disturbance(&mut self, link: usize, torque: Vector) {
+        if link < LINKS && torque.is_finite() {
+            self.disturbance[link] = torque;
         }
     }
 
@@ -292,18 +329,31 @@ impl Drummer {
     fn physics_step(&mut self, targets: &JointTargets, sink: &mut impl FnMut(Strike)) {
         let pose = self.sim_pose();
         let world = &mut self.model.world;
-        for i in 1..LINKS {
-            if let Some(b) = world.bodies.get_mut(self.model.bodies[i]) {
-                b.reset_torques(false);
-            }
-        }
+        let mut torque = [Vector::ZERO; LINKS];
         let limit_k = (std::f32::consts::TAU * self.settings.limit_hz).powi(2);
+        let weight: [Vector; LINKS] = std::array::from_fn(|i| {
+            let (m, c) = self.link_mass[i];
+            (pose.pos[i] + pose.rot[i] * c, m * 9.81)
+        })
+        .map(|(c, w)| Vector::new(c.x * w, c.y * w, w));
         for j in 0..JOINTS {
             let link = j + 1;
             let parent = self.skel.links[link].parent.unwrap_or(0);
             let q = pose.rot[parent].inverse() * pose.rot[link];
             let g = &self.gains[j];
             let err = rot_error(targets.rot[j], q);
+            // Gravity compensation: the torque that holds the subtree's weight about the
+            // joint, applied to child and parent as an external torque pair.
+            let p = pose.pos[link];
+            let mut hold = Vector::ZERO;
+            for (i, w) in weight.iter().enumerate() {
+                if self.in_subtree[j][i] {
+                    // -(c - p) x (0, 0, -W), from the weights w = (W cx, W cy, W).
+                    hold += Vector::new(w.y - p.y * w.z, -(w.x - p.x * w.z), 0.0);
+                }
+            }
+            torque[link] += hold;
+            torque[parent] -= hold;
             let v = targets.vel[j] + err * g.ks_over_kd;
             let v = if v.is_finite() { v } else { Vector::ZERO };
             if let Some(joint) = world.impulse_joints.get_mut(self.model.joints[j], false) {
@@ -321,14 +371,16 @@ impl Drummer {
                 if let Some(r) = limit.restoring(&nalgebra_quat(q)) {
                     let r = Vector::new(r.x, r.y, r.z);
                     let i_mean = (g.inertia[0] + g.inertia[1] + g.inertia[2]) / 3.0;
-                    let torque = pose.rot[parent] * (r * (limit_k * i_mean));
-                    if let Some(b) = world.bodies.get_mut(self.model.bodies[link]) {
-                        b.add_torque(torque, false);
-                    }
-                    if let Some(b) = world.bodies.get_mut(self.model.bodies[parent]) {
-                        b.add_torque(-torque, false);
-                    }
+                    let t = pose.rot[parent] * (r * (limit_k * i_mean));
+                    torque[link] += t;
+                    torque[parent] -= t;
                 }
+            }
+        }
+        for i in 1..LINKS {
+            if let Some(b) = world.bodies.get_mut(self.model.bodies[i]) {
+                b.reset_torques(false);
+                b.add_torque(torque[i] + self.disturbance[i], false);
             }
         }
         world.step();
