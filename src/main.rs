@@ -63,6 +63,45 @@ enum Command {
     },
     /// List MIDI inputs and audio outputs.
     Devices,
+    /// The HIMC stroke evaluation: five stroke styles, many perturbed trials, tip-tracking
+    /// error of the simulated body per control mode.
+    Strokes {
+        #[arg(long, value_enum, default_value_t = ModeArg::All)]
+        mode: ModeArg,
+        /// Trials per style and mode.
+        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+        trials: u32,
+        /// Print the JSON object of DESIGN.md section 7 instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Write joint-angle traces (one trial per style and mode, 250 Hz) to this JSON file.
+        #[arg(long)]
+        traces: Option<PathBuf>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        #[arg(long)]
+        kit: Option<PathBuf>,
+    },
+    /// Fit joint limits (Algorithm 1) from motion: joint trajectories as JSON, or the
+    /// body's kinematic drumming on the kit.
+    Limits {
+        /// JSON file {"joints": [[[w, x, y, z], ...] x 11]}; default: kinematic drumming.
+        #[arg(long)]
+        from: Option<PathBuf>,
+        #[arg(long)]
+        kit: Option<PathBuf>,
+        #[arg(long, default_value = "config/limits.json")]
+        out: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum ModeArg {
+    Himc,
+    Id,
+    Ik,
+    All,
 }
 
 fn main() -> ExitCode {
@@ -98,6 +137,8 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::render::RenderInputError>()
             || e.is::<drumsim::sound::event::UnknownPiece>()
             || e.is::<drumsim::live::LiveInputError>()
+            || e.is::<drumsim::body::sim::DrummerError>()
+            || e.is::<drumsim::body::report::TrajectoryError>()
     });
     if bad_input {
         2
@@ -139,5 +180,35 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             drumsim::live::run(&opts)
         }
         Command::Devices => drumsim::live::list_devices(),
+        Command::Strokes { mode, trials, json, traces, threads, kit } => {
+            use drumsim::body::sim::Mode;
+            let modes = match mode {
+                ModeArg::Himc => vec![Mode::Himc],
+                ModeArg::Id => vec![Mode::Id],
+                ModeArg::Ik => vec![Mode::Ik],
+                ModeArg::All => Mode::ALL.to_vec(),
+            };
+            let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+            let opts = drumsim::body::report::StrokesOptions {
+                modes,
+                trials: trials as usize,
+                threads,
+                kit,
+                traces,
+                progress: !json,
+            };
+            let report = drumsim::body::report::run_strokes(&opts)?;
+            if json {
+                println!("{}", serde_json::to_string(&report)?);
+            } else {
+                print!("{}", report.table());
+            }
+            Ok(())
+        }
+        Command::Limits { from, kit, out } => {
+            drumsim::body::report::run_limits(from.as_deref(), &kit, &out)?;
+            eprintln!("wrote {}", out.display());
+            Ok(())
+        }
     }
 }

@@ -60,13 +60,13 @@ impl Default for DrummerSettings {
     fn default() -> Self {
         DrummerSettings {
             body: BodySettings::default(),
-            natural_hz: 12.0,
+            natural_hz: 18.0,
             damping_ratio: 1.0,
             limit_hz: 8.0,
             solver_iterations: 2,
             ik: IkSettings::default(),
-            feedback: 1.0,
-            limits: None,
+            feedback: 2.0,
+            limits: Some(super::limits_data::shipped()),
         }
     }
 }

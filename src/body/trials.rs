@@ -199,6 +199,9 @@ impl ErrorStats {
     }
 }
 
+/// Per style and mode the trial RMS errors; total physics steps; wall seconds spent in them.
+pub type TrialSummary = (Vec<(Style, Mode, Vec<f64>)>, u64, f64);
+
 /// Run `trials` seeded trials of every style in every mode of `modes`, spread over
 /// `threads` threads. `progress` is called after each trial. Returns, per style, per mode,
 /// the trial RMS errors, plus total physics steps and the wall time spent in them.
@@ -209,13 +212,15 @@ pub fn run_all(
     trials: usize,
     threads: usize,
     progress: &(dyn Fn() + Sync),
-) -> Result<(Vec<(Style, Mode, Vec<f64>)>, u64, f64), DrummerError> {
+) -> Result<TrialSummary, DrummerError> {
     let jobs: Vec<(Style, Mode, u64)> = Style::ALL
         .iter()
         .flat_map(|&s| modes.iter().flat_map(move |&m| (0..trials as u64).map(move |i| (s, m, i))))
         .collect();
     let next = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<Result<Vec<(usize, f64, u64, f64)>, DrummerError>> = std::thread::scope(|scope| {
+    // Per thread: (job index, RMS error, physics steps, wall seconds) of each finished job.
+    type Done = Vec<(usize, f64, u64, f64)>;
+    let results: Vec<Result<Done, DrummerError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..threads.max(1))
             .map(|_| {
                 scope.spawn(|| {
