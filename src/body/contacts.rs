@@ -16,6 +16,9 @@ use rapier3d::prelude::*;
 pub const RELEASE_S: f64 = 0.003;
 /// Smallest impulse that counts as touching, N s.
 const MIN_IMPULSE_NS: f32 = 1e-6;
+/// Slowest approach that is a strike; slower contacts are a stick settling onto a piece
+/// (after a bounce, or resting), which make no sound and send no message.
+pub const MIN_STRIKE_SPEED_MPS: f32 = 0.05;
 
 /// A new contact of a stick tip with a kit piece.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -31,8 +34,12 @@ pub struct Strike {
     pub x_m: f32,
     pub y_m: f32,
     pub impulse_ns: f32,
-    /// The contact point in world coordinates.
+    /// The contact point in world coordinates (on the piece's surface).
     pub point: Vector,
+    /// The stick's direction (butt to tip) at contact.
+    pub stick_dir: Vector,
+    /// Distance of the contact point from the stick's tip end, metres (0: the tip bead).
+    pub from_tip_m: f32,
 }
 
 impl Strike {
@@ -80,29 +87,36 @@ impl ContactTracker {
             for pair in world.narrow_phase.contact_pairs_with(model.sticks[side]) {
                 let other = if pair.collider1 == model.sticks[side] { pair.collider2 } else { pair.collider1 };
                 let Some(k) = model.surface_of(other) else { continue };
-                if let Some((_, c)) = pair.find_deepest_contact() {
-                    self.max_penetration_m = self.max_penetration_m.max(-c.dist);
-                }
+                let Some((_, c)) = pair.find_deepest_contact() else { continue };
+                self.max_penetration_m = self.max_penetration_m.max(-c.dist);
                 let impulse = pair.total_impulse_magnitude();
                 if impulse <= MIN_IMPULSE_NS {
                     continue;
                 }
+                // The contact point on the kit's side.
+                let (kit_collider, local) =
+                    if pair.collider1 == other { (pair.collider1, c.local_p1) } else { (pair.collider2, c.local_p2) };
+                let point = world.colliders.get(kit_collider).map_or(tip, |col| col.position().transform_point(local));
                 let last = self.touching_since[side][k];
-                if last.is_nan() {
+                let speed_mps = (-self.prev_tip_vel[side].dot(model.surfaces[k].normal)).max(0.0);
+                if last.is_nan() && speed_mps >= MIN_STRIKE_SPEED_MPS {
                     let surface = &model.surfaces[k];
                     let n = surface.normal;
-                    let point = tip - n * skel.stick.radius_m;
                     let (x_m, y_m) = surface.local_xy(point);
+                    let stick_dir = *hand.rotation() * skel.stick.dir;
+                    let from_tip_m = (tip - point).dot(stick_dir).max(0.0);
                     sink(Strike {
                         surface: k,
                         side,
                         time_s,
-                        speed_mps: (-self.prev_tip_vel[side].dot(n)).max(0.0),
+                        speed_mps,
                         mass_kg: effective_mass(hand, tip, n),
                         x_m,
                         y_m,
                         impulse_ns: impulse,
                         point,
+                        stick_dir,
+                        from_tip_m,
                     });
                 }
                 self.touching_since[side][k] = time_s;

@@ -60,7 +60,7 @@ impl Default for DrummerSettings {
     fn default() -> Self {
         DrummerSettings {
             body: BodySettings::default(),
-            natural_hz: 18.0,
+            natural_hz: 24.0,
             damping_ratio: 1.0,
             limit_hz: 8.0,
             solver_iterations: 2,
@@ -160,6 +160,14 @@ impl Drummer {
         let pose = skel.forward(Rotation::IDENTITY, &rest);
         let model = model::build(&skel, &pose, kit, settings.solver_iterations);
         let gains = gains(&skel, &pose, settings.natural_hz, settings.damping_ratio);
+        let mut model = model;
+        for (j, g) in gains.iter().enumerate() {
+            if let Some(joint) = model.world.impulse_joints.get_mut(model.joints[j], false) {
+                for (axis, ja) in [JointAxis::AngX, JointAxis::AngY, JointAxis::AngZ].into_iter().enumerate() {
+                    joint.data.set_motor_velocity(ja, 0.0, g.kd[axis]);
+                }
+            }
+        }
         let contacts = ContactTracker::new(&model);
         let limits = match &settings.limits {
             Some(l) => l.iter().map(|l| l.compile()).collect::<Result<Vec<_>, _>>()?,

@@ -42,6 +42,9 @@ pub const LINK_NAMES: [&str; LINKS] = [
     "r_hand",
 ];
 
+/// Radius of a stick's shaft and tip bead, m.
+pub const STICK_RADIUS_M: f32 = 0.007;
+
 /// Height of the hip joints above the floor (stool seat plus the hip's height above it).
 pub const HIP_HEIGHT_M: f32 = 0.62;
 
@@ -144,7 +147,7 @@ impl Skeleton {
             dir: Vector::Y,
             to_tip_m: stick_len * 0.7,
             to_butt_m: stick_len * 0.3,
-            radius_m: 0.007,
+            radius_m: STICK_RADIUS_M,
             mass_kg: anthro.segment(Segment::Stick).mass_kg,
         };
         Skeleton { links, stick, root: Vector::new(0.0, 0.0, HIP_HEIGHT_M) }

@@ -13,6 +13,7 @@
 use super::ik::ArmTarget;
 use super::model::Surface;
 use super::sim::stick_dir;
+use super::skeleton::STICK_RADIUS_M;
 use rapier3d::math::Vector;
 
 /// Task rate of Algorithm 2: targets arrive at 250 Hz.
@@ -186,12 +187,13 @@ impl StrokePlan {
         low + (top - low) * u * u * (3.0 - 2.0 * u)
     }
 
-    /// The arm target at time `t`.
+    /// The arm target at time `t`. Heights are of the tip bead's lowest point: its centre
+    /// rides one stick radius higher, so the bead meets the surface exactly at a hit.
     pub fn target(&self, t: f64) -> ArmTarget {
         let h = self.height(t);
         let up = h.max(0.0);
         let frac = if self.params.height_m > 0.0 { up / self.params.height_m } else { 0.0 };
-        let tip = self.point + self.normal * h + self.back * (self.params.arc_m * frac);
+        let tip = self.point + self.normal * (h + STICK_RADIUS_M) + self.back * (self.params.arc_m * frac);
         let to_tip = 0.28;
         let grip = self.point - self.dir * to_tip + self.normal * (0.5 * up);
         ArmTarget { tip, dir: (tip - grip).normalize_or(self.dir) }
@@ -268,6 +270,10 @@ mod tests {
         let frames = sample(&plans, 1.0);
         let at = interpolate(&frames, 0.3);
         assert!((at[0].tip - plans[0].target(0.3).tip).length() < 1e-5);
+        assert!(
+            ((at[0].tip - plans[0].point).dot(Vector::Z) - STICK_RADIUS_M).abs() < 1e-5,
+            "the bead touches at the hit"
+        );
         let mid = interpolate(&frames, 0.302);
         let expect = (frames[75][0].tip + frames[76][0].tip) * 0.5;
         assert!((mid[0].tip - expect).length() < 1e-5);
