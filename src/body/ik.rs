@@ -23,7 +23,8 @@ pub struct IkSettings {
     pub mobility: [f32; 4],
     /// Fraction of the posture error removed per iteration, in the null space.
     pub posture_gain: f32,
-    /// Largest tip error one iteration acts on, metres.
+    /// Largest tip error one iteration acts on, metres: at 10 kHz, 1.5 mm per step caps the
+    /// kinematic layer at 15 m/s, so a jumping target cannot fling the arm.
     pub max_step_m: f32,
     /// Weight of the stick-direction task, metres per radian (0 ignores the direction).
     pub dir_weight_m: f32,
@@ -43,7 +44,7 @@ impl Default for IkSettings {
             damping_m: 0.02,
             mobility: [0.08, 1.0, 0.8, 0.6],
             posture_gain: 0.002,
-            max_step_m: 0.05,
+            max_step_m: 0.0015,
             dir_weight_m: 0.1,
         }
     }
@@ -111,10 +112,9 @@ pub fn arm_step(
     if n > s.max_step_m {
         ep *= s.max_step_m / n;
     }
-    let mut ed = na(target.dir.normalize_or_zero() - dir);
-    if target.dir == Vector::ZERO {
-        ed = Vector3::zeros();
-    }
+    // A zero or non-finite direction means: no direction task.
+    let want = target.dir.normalize_or_zero();
+    let ed = if want == Vector::ZERO { Vector3::zeros() } else { na(want - dir) };
     let e = SVector::<f32, 6>::new(ep.x, ep.y, ep.z, ed.x * wd, ed.y * wd, ed.z * wd);
     if !e.iter().all(|x| x.is_finite()) {
         return [Vector::ZERO; 4];

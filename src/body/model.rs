@@ -21,6 +21,9 @@ const KIT: Group = Group::GROUP_2;
 const HEAD_DEPTH_M: f32 = 0.04;
 const PLATE_THICKNESS_M: f32 = 0.004;
 
+/// Depth of a drum's shell below its head, for clamping targets, m.
+const DRUM_DEPTH_M: f32 = 0.35;
+
 /// Coefficients of restitution of a stick on a head and on a cymbal.
 const HEAD_RESTITUTION: f32 = 0.5;
 const PLATE_RESTITUTION: f32 = 0.3;
@@ -36,9 +39,32 @@ pub struct Surface {
     pub u: Vector,
     pub v: Vector,
     pub radius_m: f32,
+    /// How deep below the surface the piece is solid, for clamping targets (a drum's shell;
+    /// a cymbal's thickness).
+    pub depth_m: f32,
 }
 
+/// Deepest a tip target may aim below a surface's contact height, metres.
+pub const MAX_AIM_DEPTH_M: f32 = 0.010;
+
 impl Surface {
+    /// A tip-centre target moved out of the piece: if it lies within the piece (inside its
+    /// radius and less than its depth below the surface), it is raised to at most
+    /// `MAX_AIM_DEPTH_M` below the height where the bead of radius `tip_r` touches.
+    pub fn clamp_target(&self, tip: Vector, tip_r: f32) -> Vector {
+        let h = self.height(tip);
+        let floor = tip_r - MAX_AIM_DEPTH_M;
+        if h >= floor || h < -self.depth_m {
+            return tip;
+        }
+        let d = tip - self.center;
+        let planar = d - self.normal * h;
+        if planar.length() > self.radius_m + tip_r {
+            return tip;
+        }
+        tip + self.normal * (floor - h)
+    }
+
     /// Strike point in the surface's own coordinates, metres from its centre.
     pub fn local_xy(&self, p: Vector) -> (f32, f32) {
         let d = p - self.center;
@@ -196,7 +222,23 @@ pub fn build(skel: &Skeleton, pose: &WorldPose, kit: &Kit, solver_iterations: us
             owners.push((h, k));
             h
         };
-        surfaces.push(Surface { id: piece.id.clone(), collider, center, normal: n, u, v, radius_m: piece.radius_m });
+        let depth_m = if drum.is_some() {
+            0.02
+        } else if piece.kind == PieceKind::Membrane {
+            DRUM_DEPTH_M
+        } else {
+            0.02
+        };
+        surfaces.push(Surface {
+            id: piece.id.clone(),
+            collider,
+            center,
+            normal: n,
+            u,
+            v,
+            radius_m: piece.radius_m,
+            depth_m,
+        });
     }
     Model { world, bodies, joints, sticks, surfaces, owners }
 }

@@ -100,7 +100,7 @@ impl DrummerSettings {
         check("feedback", self.feedback, 0.0, 2.0, "0..=2")?;
         check("ik.damping_m", self.ik.damping_m, 1e-4, 0.5, "1e-4..=0.5 m")?;
         check("ik.posture_gain", self.ik.posture_gain, 0.0, 0.5, "0..=0.5")?;
-        check("ik.max_step_m", self.ik.max_step_m, 1e-3, 0.5, "1e-3..=0.5 m")?;
+        check("ik.max_step_m", self.ik.max_step_m, 1e-4, 0.5, "1e-4..=0.5 m")?;
         for (i, m) in self.ik.mobility.iter().enumerate() {
             let key = ["ik.mobility[0]", "ik.mobility[1]", "ik.mobility[2]", "ik.mobility[3]"][i];
             check(key, *m, 1e-3, 10.0, "1e-3..=10")?;
@@ -139,6 +139,8 @@ pub struct Drummer {
     in_subtree: [[bool; LINKS]; JOINTS],
     /// Largest joint-limit violation seen (normalised ellipsoid radius - 1), for tests.
     pub max_limit_excess: f32,
+    /// The joint where it was seen.
+    pub worst_limit_joint: usize,
 }
 
 /// Joint-space targets of one step for `id` mode: rotations and angular velocities
@@ -192,6 +194,7 @@ impl Drummer {
             in_subtree,
             disturbance: [Vector::ZERO; LINKS],
             max_limit_excess: 0.0,
+            worst_limit_joint: 0,
         })
     }
 
@@ -283,6 +286,15 @@ impl Drummer {
     /// One 10 kHz step toward stick-tip targets (`ik` and `himc`). New strikes go to `sink`.
     pub fn step_tips(&mut self, mode: Mode, tips: &[ArmTarget; 2], sink: &mut impl FnMut(Strike)) {
         let before = self.kin;
+        // Targets inside a drum are raised to just below its head: the stroke still presses,
+        // the stick is never driven through the kit.
+        let mut tips = *tips;
+        for t in tips.iter_mut() {
+            for s in &self.model.surfaces {
+                t.tip = s.clamp_target(t.tip, self.skel.stick.radius_m);
+            }
+        }
+        let tips = &tips;
         // Kinematic layer: one DLS iteration per arm toward the targets.
         let pose_k = self.skel.forward(Rotation::IDENTITY, &self.kin);
         for (side, tip) in tips.iter().enumerate() {
@@ -305,6 +317,7 @@ impl Drummer {
             let joints_s = joints_of(&self.skel, &pose_s);
             let mut fb = self.settings.ik;
             fb.posture_gain = 0.0;
+            fb.max_step_m = 0.05;
             for (side, tip) in tips.iter().enumerate() {
                 let dw = arm_step(&self.skel, &pose_s, &joints_s, &self.rest, side, tip, &fb);
                 for (k, &j) in arm_joints(side).iter().enumerate() {
@@ -312,6 +325,14 @@ impl Drummer {
                     let local = pose_s.rot[parent].inverse() * (dw[k] * self.settings.feedback);
                     targets.rot[j] = Rotation::from_scaled_axis(local) * targets.rot[j];
                 }
+            }
+        }
+        // The PD never aims outside a joint's limit.
+        for (q, limit) in targets.rot.iter_mut().zip(&self.limits) {
+            let nq = nalgebra_quat(*q);
+            if !limit.contains(&nq) {
+                let n = limit.nearest_allowed(&nq);
+                *q = Rotation::from_xyzw(n.i, n.j, n.k, n.w);
             }
         }
         self.physics_step(&targets, sink);
@@ -375,6 +396,7 @@ impl Drummer {
                 let excess = limit.normalized_radius(&nalgebra_quat(q)) - 1.0;
                 if excess > self.max_limit_excess {
                     self.max_limit_excess = excess;
+                    self.worst_limit_joint = j;
                 }
                 if let Some(r) = limit.restoring(&nalgebra_quat(q)) {
                     let r = Vector::new(r.x, r.y, r.z);

@@ -238,6 +238,7 @@ mod tests {
             u,
             v,
             radius_m: 0.18,
+            depth_m: 0.3,
         }
     }
 

@@ -1,0 +1,199 @@
+//! The simulated drummer against physics and against its aims: energy and stability over
+//! ten minutes of strokes, joint limits, contacts (one per stroke, on time, on the point,
+//! none past the rim, no sinking), HIMC against ID, and bad input.
+
+use drumsim::body::anthropometry::BodySettings;
+use drumsim::body::contacts::Strike;
+use drumsim::body::ik::ArmTarget;
+use drumsim::body::sim::{Drummer, DrummerError, DrummerSettings, Mode};
+use drumsim::body::strokes::{StrokePlan, Style};
+use drumsim::body::trials::{plans_for, run_all, run_trial, ErrorStats};
+use drumsim::kit::Kit;
+use rapier3d::math::Vector;
+
+fn drummer() -> Drummer {
+    Drummer::new(&Kit::builtin_default(), DrummerSettings::default()).expect("default drummer")
+}
+
+#[test]
+fn ten_minutes_of_strokes_stay_finite_bounded_inside_the_limits_and_out_of_the_drums() {
+    let mut d = drummer();
+    let styles = Style::ALL;
+    let mut strikes = 0usize;
+    let (mut e_min, mut e_max) = (f32::INFINITY, f32::NEG_INFINITY);
+    let block_s = 10.0;
+    for block in 0..60 {
+        // Ten seconds of one style, strokes every period on both hands.
+        let style = styles[block % styles.len()];
+        let p = style.params();
+        let t0 = block as f64 * block_s;
+        let base = plans_for(&d, style, None);
+        let plans: [StrokePlan; 2] = std::array::from_fn(|side| {
+            let mut plan = base[side].clone();
+            let first = t0 + 0.3 + side as f64 * 0.5 * p.period_s as f64;
+            plan.hits =
+                (0..).map(|k| first + k as f64 * p.period_s as f64).take_while(|&h| h < t0 + block_s - 0.3).collect();
+            plan
+        });
+        for k in 0..(block_s * 1e4) as u64 {
+            let t = d.time_s() + 1e-4;
+            let targets = [plans[0].target(t), plans[1].target(t)];
+            d.step_tips(Mode::Himc, &targets, &mut |_| strikes += 1);
+            if k % 1000 == 0 {
+                let e = d.energy_j();
+                assert!(e.is_finite(), "energy not finite at {t} s");
+                e_min = e_min.min(e);
+                e_max = e_max.max(e);
+                let tips = d.tips(Mode::Himc);
+                assert!(tips.iter().all(|p| p.is_finite()));
+            }
+        }
+    }
+    assert!(d.time_s() >= 599.99);
+    // Kinetic energy of strokes is a few joules; potential energy moves with the arms.
+    assert!(e_max - e_min < 40.0, "energy range {e_min}..{e_max} J");
+    assert!(d.joint_gap_m() < 1e-3, "joints pulled apart by {} m", d.joint_gap_m());
+    assert!(d.max_limit_excess < 0.05, "a joint left its limit by {} of the ellipsoid", d.max_limit_excess);
+    assert!(d.max_penetration_m() < 0.002, "a stick sank {} m into a drum", d.max_penetration_m());
+    // Two hands, a stroke every 0.25-0.6 s for ten minutes.
+    assert!(strikes > 2000, "{strikes} strikes");
+}
+
+#[test]
+fn a_stroke_aimed_at_the_snare_makes_one_contact_on_time_on_the_point() {
+    let kit = Kit::builtin_default();
+    let r = run_trial(&kit, &DrummerSettings::default(), Style::Legato, Mode::Himc, None, false).unwrap();
+    let snare = r.surface_names.iter().position(|s| s == "snare").unwrap();
+    let plan = &r.plans[0];
+    let on_snare: Vec<&Strike> = r.strikes.iter().filter(|s| s.surface == snare).collect();
+    assert_eq!(on_snare.len(), plan.hits.len(), "one contact per stroke: {on_snare:?}");
+    for (s, &hit) in on_snare.iter().zip(&plan.hits) {
+        assert_eq!(s.side, 0);
+        let dt_ms = (s.time_s - hit) * 1e3;
+        assert!(dt_ms.abs() <= 2.0, "contact {dt_ms:+.2} ms from the aimed time");
+        let miss = s.point - plan.point;
+        let miss = (miss - plan.normal * miss.dot(plan.normal)).length();
+        assert!(miss <= 0.01, "contact {:.1} mm from the aimed point", miss * 1e3);
+        // A legato stroke falls from 15 cm in 0.1 s: about 3 m/s.
+        assert!(s.speed_mps > 2.0 && s.speed_mps < 4.0, "{} m/s", s.speed_mps);
+        assert!(s.impulse_ns > 0.0 && s.mass_kg > 0.02 && s.mass_kg < 0.5);
+        let msg = s.message(&drummer().surfaces().to_vec());
+        assert_eq!(msg.piece, "snare");
+    }
+    assert!(r.max_penetration_m < 0.002, "sank {} m", r.max_penetration_m);
+    // The hi-hat hand's strokes land on the hi-hat only.
+    let hihat = r.surface_names.iter().position(|s| s == "hihat").unwrap();
+    assert!(r.strikes.iter().all(|s| s.surface == if s.side == 0 { snare } else { hihat }), "{:?}", r.strikes);
+}
+
+#[test]
+fn a_stroke_aimed_past_the_rim_touches_nothing_on_the_snare() {
+    let mut d = drummer();
+    let snare = d.surfaces().iter().position(|s| s.id == "snare").unwrap();
+    let hihat = d.surfaces().iter().position(|s| s.id == "hihat").unwrap();
+    let s = d.surfaces()[snare].clone();
+    // 6 cm beyond the snare's left edge, in its plane.
+    let past = StrokePlan::on(&s, 0, -(s.radius_m + 0.06), 0.0, Style::Legato.params(), vec![0.5, 1.0]);
+    let idle = StrokePlan::on(&d.surfaces()[hihat].clone(), 1, 0.0, 0.0, Style::Legato.params(), Vec::new());
+    let mut strikes = Vec::new();
+    let mut lowest = f32::INFINITY;
+    for _ in 0..14000 {
+        let t = d.time_s() + 1e-4;
+        d.step_tips(Mode::Himc, &[past.target(t), idle.target(t)], &mut |st| strikes.push(st));
+        lowest = lowest.min(s.height(d.tips(Mode::Himc)[0]));
+    }
+    assert!(
+        strikes.iter().all(|st| st.surface != snare && !d.surfaces()[st.surface].id.starts_with("snare")),
+        "{strikes:?}"
+    );
+    // The tip really went down past the head's plane beside the drum.
+    assert!(lowest < 0.0, "lowest tip height {lowest}");
+}
+
+#[test]
+fn himc_tracks_stick_tips_better_than_id_in_every_style_with_less_spread() {
+    let kit = Kit::builtin_default();
+    let (results, steps, _) =
+        run_all(&kit, &DrummerSettings::default(), &[Mode::Himc, Mode::Id], 6, 2, &|| {}).unwrap();
+    assert!(steps > 0);
+    for style in Style::ALL {
+        let stats = |mode| {
+            let (_, _, v) = results.iter().find(|(s, m, _)| *s == style && *m == mode).unwrap();
+            ErrorStats::of(v)
+        };
+        let (himc, id) = (stats(Mode::Himc), stats(Mode::Id));
+        eprintln!(
+            "{:16} himc {:.2} +- {:.2} mm, id {:.2} +- {:.2} mm",
+            style.name(),
+            himc.rms_m * 1e3,
+            himc.sd_m * 1e3,
+            id.rms_m * 1e3,
+            id.sd_m * 1e3
+        );
+        assert!(himc.rms_m < id.rms_m, "{}: himc {} vs id {}", style.name(), himc.rms_m, id.rms_m);
+        assert!(himc.sd_m < id.sd_m, "{}: spread himc {} vs id {}", style.name(), himc.sd_m, id.sd_m);
+    }
+}
+
+#[test]
+fn unreachable_nan_and_buried_targets_leave_a_finite_body() {
+    let mut d = drummer();
+    let ready = [0, 1].map(|i| ArmTarget { tip: d.tips(Mode::Ik)[i], dir: d.stick_dirs()[i] });
+    let snare = d.surfaces().iter().find(|s| s.id == "snare").unwrap().clone();
+    let cases = [
+        // Far outside the arm's reach, behind the drummer.
+        [
+            ArmTarget { tip: Vector::new(0.0, -3.0, 3.0), dir: Vector::Y },
+            ArmTarget { tip: Vector::new(5.0, 5.0, -2.0), dir: -Vector::Y },
+        ],
+        // Not a number.
+        [
+            ArmTarget { tip: Vector::splat(f32::NAN), dir: Vector::Y },
+            ArmTarget { tip: ready[1].tip, dir: Vector::splat(f32::NAN) },
+        ],
+        // Deep inside the snare.
+        [ArmTarget { tip: snare.center - snare.normal * 0.15, dir: ready[0].dir }, ready[1]],
+    ];
+    for targets in cases {
+        for _ in 0..5000 {
+            d.step_tips(Mode::Himc, &targets, &mut |_| {});
+        }
+        let tips = d.tips(Mode::Himc);
+        assert!(tips.iter().all(|p| p.is_finite()) && d.energy_j().is_finite());
+        assert!(d.joint_gap_m() < 0.01, "joints pulled apart by {} m", d.joint_gap_m());
+        for _ in 0..5000 {
+            d.step_tips(Mode::Himc, &ready, &mut |_| {});
+        }
+    }
+    // Joint limits and the 2 mm bound on sinking are asserted in play (above); an arm flung
+    // after impossible targets may strain both, but the body stays whole and finite.
+    eprintln!(
+        "after abuse: limit excess {} at joint {}, sank {} m",
+        d.max_limit_excess,
+        d.worst_limit_joint,
+        d.max_penetration_m()
+    );
+    assert!(d.max_penetration_m() < 0.05, "a stick went {} m into the kit", d.max_penetration_m());
+    // Back at the ready targets, the body tracks them again.
+    let tips = d.tips(Mode::Himc);
+    assert!((tips[0] - ready[0].tip).length() < 0.01 && (tips[1] - ready[1].tip).length() < 0.01);
+}
+
+#[test]
+fn absurd_settings_are_rejected_with_the_key() {
+    let kit = Kit::builtin_default();
+    let bad = |s: DrummerSettings| match Drummer::new(&kit, s) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("accepted"),
+    };
+    let msg = bad(DrummerSettings { natural_hz: 1e6, ..DrummerSettings::default() });
+    assert!(msg.contains("natural_hz"), "{msg}");
+    let msg = bad(DrummerSettings { damping_ratio: f32::NAN, ..DrummerSettings::default() });
+    assert!(msg.contains("damping_ratio"), "{msg}");
+    let body = BodySettings { mass_kg: 5000.0, ..BodySettings::default() };
+    let msg = bad(DrummerSettings { body, ..DrummerSettings::default() });
+    assert!(msg.contains("mass_kg"), "{msg}");
+    let err =
+        Drummer::new(&kit, DrummerSettings { limits: Some(Vec::new()), ..DrummerSettings::default() }).err().unwrap();
+    assert!(matches!(err, DrummerError::Setting { key: "limits", .. }), "{err}");
+}
