@@ -114,6 +114,10 @@ impl DrummerSettings {
     }
 }
 
+/// Fastest relative angular velocity the PD asks of a joint, rad/s (wrist flicks in fast
+/// strokes reach about 30).
+pub const MAX_JOINT_SPEED_RAD_S: f32 = 40.0;
+
 /// Where the sticks wait between strokes: tip heights above the snare (left) and the
 /// hi-hat (right), metres.
 pub const READY_HEIGHT_M: f32 = 0.10;
@@ -317,7 +321,7 @@ impl Drummer {
             let joints_s = joints_of(&self.skel, &pose_s);
             let mut fb = self.settings.ik;
             fb.posture_gain = 0.0;
-            fb.max_step_m = 0.05;
+            fb.max_step_m = 0.02;
             for (side, tip) in tips.iter().enumerate() {
                 let dw = arm_step(&self.skel, &pose_s, &joints_s, &self.rest, side, tip, &fb);
                 for (k, &j) in arm_joints(side).iter().enumerate() {
@@ -384,7 +388,9 @@ impl Drummer {
             torque[link] += hold;
             torque[parent] -= hold;
             let v = targets.vel[j] + err * g.ks_over_kd;
-            let v = if v.is_finite() { v } else { Vector::ZERO };
+            // A human joint turns at most a few tens of radians per second; a jumping target
+            // must not make the implicit motor fling the link.
+            let v = if v.is_finite() { v.clamp_length_max(MAX_JOINT_SPEED_RAD_S) } else { Vector::ZERO };
             if let Some(joint) = world.impulse_joints.get_mut(self.model.joints[j], false) {
                 for (axis, (ja, va)) in
                     [JointAxis::AngX, JointAxis::AngY, JointAxis::AngZ].into_iter().zip([v.x, v.y, v.z]).enumerate()
