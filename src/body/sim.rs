@@ -164,9 +164,8 @@ impl Drummer {
         let skel = Skeleton::new(&anthro);
         let rest = ready_pose(&skel, kit, &settings.ik);
         let pose = skel.forward(Rotation::IDENTITY, &rest);
-        let model = model::build(&skel, &pose, kit, settings.solver_iterations);
+        let mut model = model::build(&skel, &pose, kit, settings.solver_iterations);
         let gains = gains(&skel, &pose, settings.natural_hz, settings.damping_ratio);
-        let mut model = model;
         for (j, g) in gains.iter().enumerate() {
             if let Some(joint) = model.world.impulse_joints.get_mut(model.joints[j], false) {
                 for (axis, ja) in [JointAxis::AngX, JointAxis::AngY, JointAxis::AngZ].into_iter().enumerate() {
@@ -305,7 +304,7 @@ impl Drummer {
             let dw = arm_step(&self.skel, &pose_k, &self.kin, &self.rest, side, tip, &self.settings.ik);
             apply_arm_step(&pose_k, &mut self.kin, side, &dw, &self.skel);
         }
-        self.clamp_kinematic_limits();
+        clamp_to_limits(&self.limits, &mut self.kin);
         if mode == Mode::Ik {
             self.step += 1;
             return;
@@ -314,10 +313,10 @@ impl Drummer {
         for j in 0..JOINTS {
             targets.vel[j] = rot_error(self.kin[j], before[j]) / DT_S;
         }
+        let pose_s = self.sim_pose();
         if mode == Mode::Himc {
             // Task-space feedback: the IK of the simulated arm's tip error, on top of the
             // kinematic targets.
-            let pose_s = self.sim_pose();
             let joints_s = joints_of(&self.skel, &pose_s);
             let mut fb = self.settings.ik;
             fb.posture_gain = 0.0;
@@ -332,35 +331,20 @@ impl Drummer {
             }
         }
         // The PD never aims outside a joint's limit.
-        for (q, limit) in targets.rot.iter_mut().zip(&self.limits) {
-            let nq = nalgebra_quat(*q);
-            if !limit.contains(&nq) {
-                let n = limit.nearest_allowed(&nq);
-                *q = Rotation::from_xyzw(n.i, n.j, n.k, n.w);
-            }
-        }
-        self.physics_step(&targets, sink);
+        clamp_to_limits(&self.limits, &mut targets.rot);
+        self.physics_step(&targets, pose_s, sink);
     }
 
     /// One 10 kHz step of `id` mode: PD toward joint targets. The kinematic layer follows
     /// the targets.
     pub fn step_joints(&mut self, targets: &JointTargets, sink: &mut impl FnMut(Strike)) {
         self.kin = targets.rot;
-        self.physics_step(targets, sink);
-    }
-
-    fn clamp_kinematic_limits(&mut self) {
-        for (q, limit) in self.kin.iter_mut().zip(&self.limits) {
-            let nq = nalgebra_quat(*q);
-            if !limit.contains(&nq) {
-                let n = limit.nearest_allowed(&nq);
-                *q = Rotation::from_xyzw(n.i, n.j, n.k, n.w);
-            }
-        }
-    }
-
-    fn physics_step(&mut self, targets: &JointTargets, sink: &mut impl FnMut(Strike)) {
         let pose = self.sim_pose();
+        self.physics_step(targets, pose, sink);
+    }
+
+    /// PD, gravity and limit torques from the dynamic layer's `pose`, then one rapier step.
+    fn physics_step(&mut self, targets: &JointTargets, pose: WorldPose, sink: &mut impl FnMut(Strike)) {
         let world = &mut self.model.world;
         let mut torque = [Vector::ZERO; LINKS];
         let limit_k = (std::f32::consts::TAU * self.settings.limit_hz).powi(2);
@@ -399,12 +383,14 @@ impl Drummer {
                 }
             }
             if let Some(limit) = self.limits.get(j) {
-                let excess = limit.normalized_radius(&nalgebra_quat(q)) - 1.0;
+                let nq = nalgebra_quat(q);
+                let excess = limit.normalized_radius(&nq) - 1.0;
                 if excess > self.max_limit_excess {
                     self.max_limit_excess = excess;
                     self.worst_limit_joint = j;
                 }
-                if let Some(r) = limit.restoring(&nalgebra_quat(q)) {
+                // Inside the ellipsoid (the common case) there is nothing to restore.
+                if let Some(r) = if excess > 0.0 { limit.restoring(&nq) } else { None } {
                     let r = Vector::new(r.x, r.y, r.z);
                     let i_mean = (g.inertia[0] + g.inertia[1] + g.inertia[2]) / 3.0;
                     let t = pose.rot[parent] * (r * (limit_k * i_mean));
@@ -423,6 +409,17 @@ impl Drummer {
         self.step += 1;
         let t = self.time_s();
         self.contacts.update(&self.model, &self.skel, t, sink);
+    }
+}
+
+/// Move every joint rotation outside its limit to the nearest allowed rotation.
+fn clamp_to_limits(limits: &[CompiledLimit], rots: &mut [Rotation; JOINTS]) {
+    for (q, limit) in rots.iter_mut().zip(limits) {
+        let nq = nalgebra_quat(*q);
+        if !limit.contains(&nq) {
+            let n = limit.nearest_allowed(&nq);
+            *q = Rotation::from_xyzw(n.i, n.j, n.k, n.w);
+        }
     }
 }
 
