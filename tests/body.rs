@@ -71,6 +71,9 @@ fn a_stroke_aimed_at_the_snare_makes_one_contact_on_time_on_the_point() {
     for (s, &hit) in on_snare.iter().zip(&plan.hits) {
         assert_eq!(s.side, 0);
         let dt_ms = (s.time_s - hit) * 1e3;
+        let planar = s.point - plan.point;
+        let off_mm = (planar - plan.normal * planar.dot(plan.normal)).length() * 1e3;
+        eprintln!("snare contact {dt_ms:+.2} ms from the aim, {off_mm:.1} mm off the point, {:.2} m/s", s.speed_mps);
         assert!(dt_ms.abs() <= 2.0, "contact {dt_ms:+.2} ms from the aimed time");
         let miss = s.point - plan.point;
         let miss = (miss - plan.normal * miss.dot(plan.normal)).length();
