@@ -10,5 +10,6 @@ pub mod interaction;
 pub mod kit;
 pub mod live;
 pub mod midi;
+pub mod motion;
 pub mod render;
 pub mod sound;
