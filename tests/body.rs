@@ -127,12 +127,14 @@ fn himc_tracks_stick_tips_better_than_id_in_every_style_with_less_spread() {
         };
         let (himc, id) = (stats(Mode::Himc), stats(Mode::Id));
         eprintln!(
-            "{:16} himc {:.2} +- {:.2} mm, id {:.2} +- {:.2} mm",
+            "{:16} himc {:.2} mm rms, {:.2} mm spread ({:.2} between trials); id {:.2}, {:.2} ({:.2})",
             style.name(),
             himc.rms_m * 1e3,
             himc.sd_m * 1e3,
+            himc.trial_sd_m * 1e3,
             id.rms_m * 1e3,
-            id.sd_m * 1e3
+            id.sd_m * 1e3,
+            id.trial_sd_m * 1e3
         );
         assert!(himc.rms_m < id.rms_m, "{}: himc {} vs id {}", style.name(), himc.rms_m, id.rms_m);
         assert!(himc.sd_m < id.sd_m, "{}: spread himc {} vs id {}", style.name(), himc.sd_m, id.sd_m);

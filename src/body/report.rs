@@ -35,10 +35,15 @@ pub struct StrokesReport {
 impl StrokesReport {
     /// A table for people.
     pub fn table(&self) -> String {
-        let mut s = String::from("style            mode   tip RMS error (mean over trials)   sd over trials\n");
+        let mut s = String::from("style            mode   tip RMS error   spread (sd)   sd of trial RMS\n");
         for (style, modes) in &self.styles {
             for (mode, e) in modes {
-                s += &format!("{style:16} {mode:5}  {:8.2} mm {:>31.2} mm\n", e.rms_m * 1e3, e.sd_m * 1e3);
+                s += &format!(
+                    "{style:16} {mode:5}  {:10.2} mm {:10.2} mm {:14.2} mm\n",
+                    e.rms_m * 1e3,
+                    e.sd_m * 1e3,
+                    e.trial_sd_m * 1e3
+                );
             }
         }
         s += &format!(

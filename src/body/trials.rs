@@ -30,6 +30,8 @@ const STROKES: usize = 3;
 pub struct TrialResult {
     /// RMS distance of both stick tips from their targets after settling, metres.
     pub rms_m: f64,
+    /// The tip-error samples behind it (both tips, every physics step after settling).
+    pub errors: ErrorSums,
     pub strikes: Vec<Strike>,
     pub plans: [StrokePlan; 2],
     pub steps: u64,
@@ -110,7 +112,7 @@ pub fn run_trial(
     let steps = (end * 1e4) as u64;
     let mut strikes = Vec::with_capacity(16);
     let mut trace = Vec::new();
-    let (mut sum_sq, mut count) = (0.0f64, 0u64);
+    let mut sums = ErrorSums::default();
     let started = std::time::Instant::now();
     for k in 0..steps {
         let t = k as f64 * 1e-4;
@@ -126,9 +128,8 @@ pub fn run_trial(
         if t + 1e-4 >= SETTLE_S {
             let tips = drummer.tips(mode);
             for side in 0..2 {
-                sum_sq += (tips[side] - targets[side].tip).length_squared() as f64;
+                sums.add((tips[side] - targets[side].tip).length() as f64);
             }
-            count += 2;
         }
         if record && k % STEPS_PER_FRAME as u64 == 0 {
             let q = if mode == Mode::Ik { *drummer.kinematic_joints() } else { drummer.sim_joints() };
@@ -137,7 +138,8 @@ pub fn run_trial(
     }
     let wall_s = started.elapsed().as_secs_f64();
     Ok(TrialResult {
-        rms_m: (sum_sq / count.max(1) as f64).sqrt(),
+        rms_m: sums.rms_m(),
+        errors: sums,
         strikes,
         plans,
         steps,
@@ -183,24 +185,65 @@ pub fn joint_targets(frames: &[[Rotation; JOINTS]], t: f64) -> JointTargets {
     out
 }
 
-/// Mean and spread of one style and mode over its trials.
+/// Running sums of tip-error distances, metres.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ErrorSums {
+    pub sum: f64,
+    pub sum_sq: f64,
+    pub count: u64,
+}
+
+impl ErrorSums {
+    pub fn add(&mut self, e: f64) {
+        self.sum += e;
+        self.sum_sq += e * e;
+        self.count += 1;
+    }
+
+    pub fn merge(&mut self, o: &ErrorSums) {
+        self.sum += o.sum;
+        self.sum_sq += o.sum_sq;
+        self.count += o.count;
+    }
+
+    pub fn rms_m(&self) -> f64 {
+        (self.sum_sq / self.count.max(1) as f64).sqrt()
+    }
+}
+
+/// Error and spread of one style and mode over its trials.
+///
+/// `rms_m` is the RMS tip error over every sample of every trial; `sd_m`, the spread, is the
+/// standard deviation of the tip error over those same samples (how widely the error is
+/// spread around its mean: rms^2 = mean^2 + sd^2); `trial_sd_m` is the standard deviation
+/// of the trials' own RMS errors (how much the perturbations move the error from trial to
+/// trial).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct ErrorStats {
     pub rms_m: f64,
     pub sd_m: f64,
+    pub trial_sd_m: f64,
 }
 
 impl ErrorStats {
-    pub fn of(values: &[f64]) -> ErrorStats {
-        let n = values.len().max(1) as f64;
-        let mean = values.iter().sum::<f64>() / n;
-        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-        ErrorStats { rms_m: mean, sd_m: var.sqrt() }
+    pub fn of(trials: &[ErrorSums]) -> ErrorStats {
+        let mut all = ErrorSums::default();
+        for t in trials {
+            all.merge(t);
+        }
+        let n = all.count.max(1) as f64;
+        let mean = all.sum / n;
+        let sd_m = (all.sum_sq / n - mean * mean).max(0.0).sqrt();
+        let rms: Vec<f64> = trials.iter().map(ErrorSums::rms_m).collect();
+        let k = rms.len().max(1) as f64;
+        let m = rms.iter().sum::<f64>() / k;
+        let var = rms.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (k - 1.0).max(1.0);
+        ErrorStats { rms_m: all.rms_m(), sd_m, trial_sd_m: var.sqrt() }
     }
 }
 
-/// Per style and mode the trial RMS errors; total physics steps; wall seconds spent in them.
-pub type TrialSummary = (Vec<(Style, Mode, Vec<f64>)>, u64, f64);
+/// Per style and mode the trials' error sums; total physics steps; wall seconds spent in them.
+pub type TrialSummary = (Vec<(Style, Mode, Vec<ErrorSums>)>, u64, f64);
 
 /// Run `trials` seeded trials of every style in every mode of `modes`, spread over
 /// `threads` threads. `progress` is called after each trial. Returns, per style, per mode,
@@ -219,7 +262,7 @@ pub fn run_all(
         .collect();
     let next = std::sync::atomic::AtomicUsize::new(0);
     // Per thread: (job index, RMS error, physics steps, wall seconds) of each finished job.
-    type Done = Vec<(usize, f64, u64, f64)>;
+    type Done = Vec<(usize, ErrorSums, u64, f64)>;
     let results: Vec<Result<Done, DrummerError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..threads.max(1))
             .map(|_| {
@@ -230,7 +273,7 @@ pub fn run_all(
                         let Some(&(style, mode, trial)) = jobs.get(i) else { break };
                         let r = run_trial(kit, base, style, mode, Some(trial + 1), false)?;
                         let physical = if mode == Mode::Ik { 0 } else { r.steps };
-                        mine.push((i, r.rms_m, physical, if mode == Mode::Ik { 0.0 } else { r.wall_s }));
+                        mine.push((i, r.errors, physical, if mode == Mode::Ik { 0.0 } else { r.wall_s }));
                         progress();
                     }
                     Ok(mine)
@@ -239,7 +282,7 @@ pub fn run_all(
             .collect();
         handles.into_iter().map(|h| h.join().expect("trial thread panicked")).collect()
     });
-    let mut rms = vec![0.0; jobs.len()];
+    let mut rms = vec![ErrorSums::default(); jobs.len()];
     let (mut steps, mut wall) = (0u64, 0.0f64);
     for r in results {
         for (i, e, s, w) in r? {
@@ -251,7 +294,7 @@ pub fn run_all(
     let mut out = Vec::new();
     for &style in &Style::ALL {
         for &mode in modes {
-            let v: Vec<f64> =
+            let v: Vec<ErrorSums> =
                 jobs.iter().zip(&rms).filter(|((s, m, _), _)| *s == style && *m == mode).map(|(_, e)| *e).collect();
             out.push((style, mode, v));
         }
