@@ -3,5 +3,6 @@
 //! exports in their own modules.
 
 pub mod track;
+pub mod upper;
 
 pub use track::{Motion, MotionFrame, Pose, ARKIT_NAMES, FPS, HAND_VALUES, STICK_TIP_LOCAL};
