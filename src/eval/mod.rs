@@ -1,3 +1,8 @@
 //! Measures shared by tests, benches and reports (DESIGN.md section 5).
 
 pub mod audio;
+pub mod beat;
+pub mod dtw;
+pub mod motion;
+pub mod savgol;
+pub mod strike;
