@@ -3,6 +3,7 @@
 //! exports in their own modules.
 
 pub mod body_ik;
+pub mod export;
 pub mod rig;
 pub mod track;
 
