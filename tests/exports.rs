@@ -252,6 +252,48 @@ fn assimp_count(report: &str, key: &str) -> Option<usize> {
     report.lines().find_map(|l| l.trim().strip_prefix(key).and_then(|r| r.trim().parse().ok()))
 }
 
+/// World joint positions of frame `k` of a GLB's animation 0: node translations, the
+/// animated root translation and rotations, composed down the node tree.
+fn glb_world(doc: &serde_json::Value, bin: &[u8], k: usize, joints: usize) -> Vec<Vector3<f32>> {
+    let floats = |acc: usize, width: usize| -> Vec<f32> {
+        let a = &doc["accessors"][acc];
+        let view = &doc["bufferViews"][a["bufferView"].as_u64().unwrap() as usize];
+        let at = view["byteOffset"].as_u64().unwrap() as usize + k * width * 4;
+        (0..width).map(|c| f32::from_le_bytes(bin[at + 4 * c..at + 4 * c + 4].try_into().unwrap())).collect()
+    };
+    let nodes = doc["nodes"].as_array().unwrap();
+    let mut parent = vec![None; joints];
+    for (i, n) in nodes.iter().enumerate().take(joints) {
+        for c in n["children"].as_array().into_iter().flatten() {
+            parent[c.as_u64().unwrap() as usize] = Some(i);
+        }
+    }
+    let mut translation: Vec<Vector3<f32>> = nodes.iter().take(joints).map(|n| v3(&n["translation"])).collect();
+    let mut rotation = vec![UnitQuaternion::identity(); joints];
+    let anim = &doc["animations"][0];
+    for ch in anim["channels"].as_array().unwrap() {
+        let node = ch["target"]["node"].as_u64().unwrap() as usize;
+        let sampler = &anim["samplers"][ch["sampler"].as_u64().unwrap() as usize];
+        let out = sampler["output"].as_u64().unwrap() as usize;
+        match ch["target"]["path"].as_str().unwrap() {
+            "translation" => translation[node] = Vector3::from_vec(floats(out, 3)),
+            "rotation" => {
+                let q = floats(out, 4); // x, y, z, w
+                rotation[node] = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[3], q[0], q[1], q[2]));
+            }
+            other => panic!("animated {other}"),
+        }
+    }
+    let mut world: Vec<(Vector3<f32>, UnitQuaternion<f32>)> = vec![];
+    for i in 0..joints {
+        world.push(match parent[i] {
+            None => (translation[i], rotation[i]),
+            Some(p) => (world[p].0 + world[p].1 * translation[i], world[p].1 * rotation[i]),
+        });
+    }
+    world.into_iter().map(|w| w.0).collect()
+}
+
 /// The JSON chunk of a GLB file, after checking the container.
 fn glb_json(bytes: &[u8]) -> serde_json::Value {
     let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().unwrap()) as usize;
@@ -274,8 +316,20 @@ fn glb_has_the_skin_and_one_animation_and_validates() {
     let dir = out_dir("glb");
     let path = dir.join("groove.glb");
     export::gltf::write(&motion, &rig, &path).unwrap();
-    let doc = glb_json(&std::fs::read(&path).unwrap());
+    let bytes = std::fs::read(&path).unwrap();
+    let doc = glb_json(&bytes);
     assert_eq!(doc["skins"][0]["joints"].as_array().unwrap().len(), 57);
+    // The animated skeleton is the rig's, in metres and Y-up.
+    let bin = &bytes[20 + u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize + 8..];
+    let poses = drumsim::motion::body_ik::solve_motion(&rig, &motion);
+    let mut worst = 0.0f32;
+    for k in (0..poses.len()).step_by(11) {
+        for ((p, _), g) in rig.world(&poses[k]).iter().zip(glb_world(&doc, bin, k, 57)) {
+            worst = worst.max((Vector3::from(export::y_up(*p)) - g).norm());
+        }
+    }
+    println!("glb: worst joint position difference to the rig {:.4} mm", worst * 1e3);
+    assert!(worst < 1e-4, "GLB joints off the rig by {worst} m");
     let anim = &doc["animations"][0];
     assert_eq!(anim["channels"].as_array().unwrap().len(), 1 + 57);
     let input = anim["samplers"][0]["input"].as_u64().unwrap() as usize;

@@ -348,10 +348,8 @@ mod tests {
         // (through the grip along the hand's +y), on both hands.
         let rig = Rig::default();
         let mut pose = rig.rest_pose();
-        for side in 0..2 {
-            for k in 0..15 {
-                pose.local[HAND[side] + 1 + k] = rig.fist[side][k];
-            }
+        for (hand, fist) in HAND.iter().zip(&rig.fist) {
+            pose.local[hand + 1..hand + 16].copy_from_slice(fist);
         }
         let world = rig.world(&pose);
         for side in 0..2 {

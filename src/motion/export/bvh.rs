@@ -109,15 +109,24 @@ mod tests {
 
     #[test]
     fn euler_zxy_rebuilds_the_rotation() {
-        for (a, b, c) in [(0.3, -0.7, 1.1), (2.0, 0.1, -2.5), (0.0, 1.5707, 0.4), (-1.0, -1.2, 3.0)] {
-            let q = UnitQuaternion::from_euler_angles(a, b, c);
+        let e = UnitQuaternion::from_euler_angles;
+        let axis = |a: nalgebra::Unit<Vector3<f32>>, angle: f32| UnitQuaternion::from_axis_angle(&a, angle);
+        // Plain cases, and BVH's x at exactly -90 and +90 degrees (gimbal lock) with a turn.
+        let gimbal = std::f32::consts::FRAC_PI_2;
+        for q in [
+            e(0.3, -0.7, 1.1),
+            e(2.0, 0.1, -2.5),
+            e(-1.0, -1.2, 3.0),
+            axis(Vector3::x_axis(), gimbal) * axis(Vector3::z_axis(), 0.7),
+            axis(Vector3::z_axis(), -0.4) * axis(Vector3::x_axis(), -gimbal),
+        ] {
             let [z, x, y] = euler_zxy_deg(&q).map(|d| d.to_radians());
             let r = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), z)
                 * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), x)
                 * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), y);
             let [w, i, j, k] = y_up_rot(&q);
             let expect = UnitQuaternion::from_quaternion(Quaternion::new(w, i, j, k));
-            assert!(r.angle_to(&expect) < 1e-3, "{a} {b} {c}: off by {}", r.angle_to(&expect));
+            assert!(r.angle_to(&expect) < 1e-3, "{q:?}: off by {}", r.angle_to(&expect));
         }
     }
 }
