@@ -4,6 +4,10 @@
 # if there is none. Safe to run again; runs apt only for what is missing.
 set -euo pipefail
 packages=(pkg-config libasound2-dev libjack-jackd2-dev jackd2 gcc libc6-dev)
+# The export tests read the BVH back with assimp and validate the glTF with the Khronos
+# glTF-Validator, which runs on Node.js (installed below into /opt/gltf-validator).
+packages+=(assimp-utils)
+command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"
 missing=()
@@ -16,6 +20,12 @@ if [ ${#missing[@]} -gt 0 ]; then
     # jackd2 asks whether to enable realtime scheduling; answer no, non-interactively.
     echo "jackd2 jackd/tweak_rt_limits boolean false" | $sudo debconf-set-selections
     DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+validator=/opt/gltf-validator
+if [ ! -d "$validator/node_modules/gltf-validator" ]; then
+    echo "setup-debian: installing gltf-validator into $validator" >&2
+    $sudo mkdir -p "$validator"
+    $sudo npm install --prefix "$validator" --no-audit --no-fund --silent gltf-validator@2.0.0-dev.3.10
 fi
 if ! command -v cargo >/dev/null 2>&1; then
     [ -x "$HOME/.cargo/bin/cargo" ] || {

@@ -2,6 +2,9 @@
 //! the training corpus, hand model, strike planning, upper-body retrieval, feet, rig and
 //! exports in their own modules.
 
+pub mod body_ik;
+pub mod export;
+pub mod rig;
 pub mod track;
 pub mod upper;
 

@@ -1,0 +1,298 @@
+//! Whole-body IK: the six targets of a [`MotionFrame`] -> local rotations of all 57 bones of
+//! the [`Rig`] and the root position. Analytic and per frame, so deterministic and cheap.
+//!
+//! Target conventions (kit frame):
+//! - chest: `pos` is the top of the spine (the `neck` joint), `rot` the upper chest's
+//!   (`spine2`) world rotation. The rotation is shared equally by spine, spine1, spine2; the
+//!   hips (which sit on the stool, world rotation identity) slide by the residual between the
+//!   target and the reached neck joint, at most [`MAX_HIP_SHIFT_M`].
+//! - head: `rot` is the head's world rotation, shared equally by neck and neck1; `pos` (the
+//!   head joint) follows from the chest and is not enforced.
+//! - hands: grip point and rotation; the hand bone's world rotation is the target's, the
+//!   wrist is the grip minus the rotated [`Rig::grip_local`]. Shoulder-elbow-wrist is a
+//!   two-bone solve with the elbow towards a pole out, down and a little back; half of the
+//!   hand's twist about the forearm goes to the forearm (pronation). Fingers stay closed.
+//! - feet: ankle position and the foot's world rotation; hip-knee-ankle two-bone with the
+//!   knee forward and a little out.
+//!
+//! A target out of reach is met as closely as the straightened limb allows (the reach is
+//! clamped just short of full extension, so the elbow and knee stay defined); non-finite
+//! targets fall back to the rest pose's. No output is ever NaN.
+
+use super::rig::{BodyPose, Rig, FOOT, HAND, HEAD, HIPS, NECK, SHOULDER, SPINE, UPPER_LEG};
+use super::track::{Motion, MotionFrame, Pose};
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+
+/// How far the hips may slide on the seat to bring the chest to its target, m.
+pub const MAX_HIP_SHIFT_M: f32 = 0.08;
+
+/// Poses of every frame of a motion.
+pub fn solve_motion(rig: &Rig, motion: &Motion) -> Vec<BodyPose> {
+    motion.frames.iter().map(|f| solve(rig, f)).collect()
+}
+
+/// The body pose that meets one frame's targets.
+pub fn solve(rig: &Rig, frame: &MotionFrame) -> BodyPose {
+    let rest = rig.rest_positions();
+    let mut pose = rig.rest_pose();
+    let id = UnitQuaternion::identity();
+
+    // Spine: the chest rotation split equally over three bones, then the hips slide.
+    let chest_rot = rotation(&frame.chest);
+    let step = chest_rot.powf(1.0 / SPINE.len() as f32);
+    for &b in &SPINE {
+        pose.local[b] = step;
+    }
+    let neck_reached = rig.world(&pose)[NECK[0]].0;
+    let chest_pos = position(&frame.chest, rest[NECK[0]]);
+    let shift = chest_pos - neck_reached;
+    pose.root += shift * (MAX_HIP_SHIFT_M / shift.norm().max(MAX_HIP_SHIFT_M));
+
+    // Neck and head: the head's rotation relative to the upper chest, split over two bones.
+    let head_rel = chest_rot.inverse() * rotation(&frame.head);
+    let step = head_rel.powf(1.0 / NECK.len() as f32);
+    for &b in &NECK {
+        pose.local[b] = step;
+    }
+    pose.local[HEAD] = id;
+
+    // Arms.
+    for side in 0..2 {
+        let sh = SHOULDER[side];
+        let (arm, forearm, hand) = (sh + 1, sh + 2, HAND[side]);
+        let world = rig.world(&pose);
+        let hand_rot = rotation(&frame.hands[side]);
+        let grip_rest = rest[hand] + rig.grip_local;
+        let wrist = position(&frame.hands[side], grip_rest) - hand_rot * rig.grip_local;
+        let out = if side == 0 { -1.0 } else { 1.0 };
+        let pole = Vector3::new(0.8 * out, -0.3, -1.0);
+        let limb = TwoBone {
+            root: world[arm].0,
+            lengths: [rig.link_length(forearm), rig.link_length(hand)],
+            pole,
+            hinge_rest: Vector3::x(),
+        };
+        let (upper_w, lower_w, bend) = limb.solve(wrist);
+        let parent_rot = world[sh].1;
+        pose.local[arm] = parent_rot.inverse() * upper_w;
+        // Split the hand's twist about the forearm axis (local -z) between forearm and hand.
+        let hand_local = lower_w.inverse() * hand_rot;
+        let half_twist = twist_about_z(&hand_local).powf(0.5);
+        pose.local[forearm] = bend * half_twist;
+        pose.local[hand] = (upper_w * pose.local[forearm]).inverse() * hand_rot;
+        for k in 0..15 {
+            pose.local[hand + 1 + k] = rig.fist[side][k];
+        }
+    }
+
+    // Legs.
+    for side in 0..2 {
+        let (hip, foot) = (UPPER_LEG[side], FOOT[side]);
+        let world = rig.world(&pose);
+        let out = if side == 0 { -1.0 } else { 1.0 };
+        let foot_rot = rotation(&frame.feet[side]);
+        let limb = TwoBone {
+            root: world[hip].0,
+            lengths: [rig.link_length(hip + 1), rig.link_length(foot)],
+            pole: Vector3::new(0.2 * out, 1.0, 0.0),
+            hinge_rest: -Vector3::x(),
+        };
+        let (upper_w, lower_w, bend) = limb.solve(position(&frame.feet[side], rest[foot]));
+        pose.local[hip] = world[HIPS].1.inverse() * upper_w;
+        pose.local[hip + 1] = bend;
+        pose.local[foot] = lower_w.inverse() * foot_rot;
+    }
+    pose
+}
+
+/// A target's rotation, identity when it is not a usable quaternion.
+fn rotation(p: &Pose) -> UnitQuaternion<f32> {
+    let [w, x, y, z] = p.rot;
+    let n = (w * w + x * x + y * y + z * z).sqrt();
+    if n > 1e-6 && n.is_finite() {
+        p.rotation()
+    } else {
+        UnitQuaternion::identity()
+    }
+}
+
+/// A target's position, `fallback` when it is not finite.
+fn position(p: &Pose, fallback: Vector3<f32>) -> Vector3<f32> {
+    let v = Vector3::from(p.pos);
+    if v.iter().all(|x| x.is_finite()) {
+        v
+    } else {
+        fallback
+    }
+}
+
+/// The twist part of a rotation about the local z axis (swing-twist decomposition).
+fn twist_about_z(q: &UnitQuaternion<f32>) -> UnitQuaternion<f32> {
+    let (w, z) = (q.w, q.k);
+    let n = (w * w + z * z).sqrt();
+    if n < 1e-6 {
+        UnitQuaternion::identity()
+    } else {
+        UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(w / n, 0.0, 0.0, z / n))
+    }
+}
+
+/// A two-bone limb whose bones point down (-z) in the rest pose and bend about
+/// `hinge_rest` (a rest-frame axis perpendicular to z).
+struct TwoBone {
+    /// World position of the first joint (shoulder, hip).
+    root: Vector3<f32>,
+    /// Upper and lower link lengths.
+    lengths: [f32; 2],
+    /// World direction the middle joint (elbow, knee) should point towards.
+    pole: Vector3<f32>,
+    hinge_rest: Vector3<f32>,
+}
+
+impl TwoBone {
+    /// World rotations of the upper and lower bones that put the end joint at `target` (or
+    /// as near as the limb reaches), and the middle joint's local rotation.
+    fn solve(&self, target: Vector3<f32>) -> (UnitQuaternion<f32>, UnitQuaternion<f32>, UnitQuaternion<f32>) {
+        let [a, b] = self.lengths;
+        let to = target - self.root;
+        let dir = if to.norm() > 1e-6 { to.normalize() } else { -Vector3::z() };
+        let d = to.norm().clamp((a - b).abs() + 1e-4, (a + b) * (1.0 - 1e-5));
+        // The pole's part across the limb; a fallback when the pole lies along it.
+        let across = |p: Vector3<f32>| p - dir * p.dot(&dir);
+        let mut perp = across(self.pole.normalize());
+        if perp.norm() < 1e-3 {
+            perp = across(self.hinge_rest.cross(&Vector3::z()));
+        }
+        if perp.norm() < 1e-3 {
+            perp = across(Vector3::y());
+        }
+        let perp = perp.normalize();
+        // Law of cosines: the upper bone leaves `dir` by `alpha` towards the pole.
+        let cos_alpha = ((a * a + d * d - b * b) / (2.0 * a * d)).clamp(-1.0, 1.0);
+        let alpha = cos_alpha.acos();
+        let u = dir * alpha.cos() + perp * alpha.sin();
+        let mid = self.root + u * a;
+        let f = (self.root + dir * d - mid) / b;
+        let hinge = perp.cross(&dir).normalize();
+        let upper = frame_rotation(u, hinge, self.hinge_rest);
+        let bend_angle = u.dot(&f).clamp(-1.0, 1.0).acos();
+        let axis = nalgebra::Unit::new_normalize(self.hinge_rest);
+        let bend = UnitQuaternion::from_axis_angle(&axis, bend_angle);
+        (upper, upper * bend, bend)
+    }
+}
+
+/// The rotation taking the rest frame (bone along -z, hinge along `hinge_rest`) onto the
+/// bone direction `u` and the hinge `hinge` (both unit, perpendicular).
+fn frame_rotation(u: Vector3<f32>, hinge: Vector3<f32>, hinge_rest: Vector3<f32>) -> UnitQuaternion<f32> {
+    let rest_axis = -Vector3::z();
+    let from = Matrix3::from_columns(&[rest_axis, hinge_rest, rest_axis.cross(&hinge_rest)]);
+    let to = Matrix3::from_columns(&[u, hinge, u.cross(&hinge)]);
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(to * from.transpose()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::track::ARKIT_NAMES;
+
+    /// A frame built from the rest pose, with the hands and feet moved to the given places.
+    fn frame(rig: &Rig, hands: [[f32; 3]; 2], feet: [[f32; 3]; 2]) -> MotionFrame {
+        let rest = rig.rest_positions();
+        let tilt = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -0.3);
+        let q = |r: UnitQuaternion<f32>| [r.w, r.i, r.j, r.k];
+        let lean = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.1);
+        MotionFrame {
+            hands: hands.map(|pos| Pose { pos, rot: q(tilt) }),
+            chest: Pose { pos: rest[NECK[0]].into(), rot: q(lean) },
+            head: Pose { pos: rest[HEAD].into(), rot: q(lean) },
+            feet: feet.map(|pos| Pose { pos, rot: [1.0, 0.0, 0.0, 0.0] }),
+            face: vec![0.0; ARKIT_NAMES.len()],
+            hihat_openness: 0.0,
+        }
+    }
+
+    fn grips(rig: &Rig, pose: &BodyPose) -> [Vector3<f32>; 2] {
+        let w = rig.world(pose);
+        HAND.map(|h| w[h].0 + w[h].1 * rig.grip_local)
+    }
+
+    #[test]
+    fn reachable_hands_and_feet_are_met_within_a_millimetre() {
+        let rig = Rig::default();
+        let hands = [[-0.25, 0.25, 0.75], [0.1, 0.3, 0.8]];
+        let feet = [[-0.3, 0.35, 0.1], [0.1, 0.55, 0.1]];
+        let mut f = frame(&rig, hands, feet);
+        // A hand rolled about the stick and turned inwards: the forearm takes part of it.
+        let r = UnitQuaternion::from_euler_angles(-0.4, 0.9, -0.5);
+        f.hands[1].rot = [r.w, r.i, r.j, r.k];
+        let pose = solve(&rig, &f);
+        for (side, g) in grips(&rig, &pose).iter().enumerate() {
+            let err = (g - Vector3::from(hands[side])).norm();
+            assert!(err < 1e-3, "hand {side} misses by {err} m");
+        }
+        let w = rig.world(&pose);
+        for side in 0..2 {
+            let err = (w[FOOT[side]].0 - Vector3::from(feet[side])).norm();
+            assert!(err < 1e-3, "foot {side} misses by {err} m");
+            // The hand and foot bones take the targets' rotations.
+            assert!(w[HAND[side]].1.angle_to(&f.hands[side].rotation()) < 1e-3);
+            assert!(w[FOOT[side]].1.angle_to(&f.feet[side].rotation()) < 1e-3);
+            // Elbows out and down, knees forward: the middle joint lies on the pole's side of
+            // the line from the root joint to the end.
+            let out = if side == 0 { -1.0 } else { 1.0 };
+            for (root, pole) in
+                [(SHOULDER[side] + 1, Vector3::new(out, 0.0, -1.0)), (UPPER_LEG[side], Vector3::new(0.0, 1.0, 0.0))]
+            {
+                let (r, m, e) = (w[root].0, w[root + 1].0, w[root + 2].0);
+                let dir = (e - r).normalize();
+                let across = pole - dir * pole.dot(&dir);
+                assert!((m - r).dot(&across) > 0.05, "{} bends the wrong way", rig.bones[root + 1].name);
+            }
+        }
+        // The chest and head take their rotations; the chest target is met by the spine.
+        assert!(w[SPINE[2]].1.angle_to(&f.chest.rotation()) < 1e-4);
+        assert!(w[HEAD].1.angle_to(&f.head.rotation()) < 1e-4);
+        assert!((w[NECK[0]].0 - Vector3::from(f.chest.pos)).norm() < 1e-3);
+    }
+
+    #[test]
+    fn link_lengths_are_preserved() {
+        let rig = Rig::default();
+        let f = frame(&rig, [[-0.2, 0.4, 0.7], [0.2, 0.5, 0.9]], [[-0.25, 0.3, 0.1], [0.1, 0.5, 0.1]]);
+        let pose = solve(&rig, &f);
+        let w = rig.world(&pose);
+        for (i, bone) in rig.bones.iter().enumerate() {
+            if let Some(p) = bone.parent {
+                let len = (w[i].0 - w[p].0).norm();
+                assert!((len - rig.link_length(i)).abs() < 1e-5, "{}: {len}", bone.name);
+            }
+        }
+    }
+
+    #[test]
+    fn unreachable_and_broken_targets_stay_finite() {
+        let rig = Rig::default();
+        let far = [[-3.0, 5.0, 4.0], [0.0, 0.0, 0.0]];
+        let mut f = frame(&rig, far, [[0.0, 9.0, -5.0], [f32::NAN, 0.0, 0.0]]);
+        f.hands[1].rot = [0.0; 4];
+        f.chest.pos = [1e9, 0.0, 0.0];
+        let pose = solve(&rig, &f);
+        assert!(pose.root.iter().all(|x| x.is_finite()));
+        assert!(pose.local.iter().all(|q| q.coords.iter().all(|x| x.is_finite())));
+        assert!((pose.root - rig.rest_pose().root).norm() <= MAX_HIP_SHIFT_M + 1e-5);
+        // The far left hand: the arm is straight and points at the target.
+        let w = rig.world(&pose);
+        let shoulder = w[SHOULDER[0] + 1].0;
+        let wrist = w[HAND[0]].0;
+        let reach = rig.link_length(SHOULDER[0] + 2) + rig.link_length(HAND[0]);
+        assert!(((wrist - shoulder).norm() - reach).abs() < 1e-3);
+    }
+
+    #[test]
+    fn same_frame_same_pose() {
+        let rig = Rig::default();
+        let f = frame(&rig, [[-0.2, 0.4, 0.7], [0.2, 0.5, 0.9]], [[-0.25, 0.3, 0.1], [0.1, 0.5, 0.1]]);
+        assert_eq!(solve(&rig, &f), solve(&rig, &f));
+    }
+}

@@ -1,0 +1,148 @@
+//! Motion out to files, through the rig and the whole-body IK: `SONG.motion.json` (the
+//! project's own format, kit frame), `SONG.bvh` and `SONG.glb` (Y-up, for animation tools
+//! and game engines).
+//!
+//! Every file is written to a temporary name in the same folder and renamed into place, so
+//! a failure never leaves a half-written file under the final name.
+//!
+//! BVH and glTF are Y-up: a kit point (x, y, z) becomes (-x, z, y), so +Y is up, the drummer
+//! faces +Z and their left is +X (the CMU / glTF convention); a rotation keeps its w and
+//! maps its vector part the same way.
+
+pub mod bvh;
+pub mod gltf;
+pub mod json;
+
+use super::body_ik;
+use super::rig::{BodyPose, Rig};
+use super::track::Motion;
+use nalgebra::{UnitQuaternion, Vector3};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Why an export failed; the message names the file or the frame at fault.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ExportError {
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("motion: {reason}")]
+    BadMotion { reason: String },
+}
+
+/// The files [`write_all`] wrote.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Paths {
+    pub json: PathBuf,
+    pub bvh: PathBuf,
+    pub glb: PathBuf,
+}
+
+/// Write `DIR/SONG.motion.json`, `DIR/SONG.bvh` and `DIR/SONG.glb`, solving the IK once.
+pub fn write_all(motion: &Motion, rig: &Rig, dir: &Path, song: &str) -> Result<Paths, ExportError> {
+    let baked = Baked::new(motion, rig)?;
+    let paths = Paths {
+        json: dir.join(format!("{song}.motion.json")),
+        bvh: dir.join(format!("{song}.bvh")),
+        glb: dir.join(format!("{song}.glb")),
+    };
+    json::write_baked(&baked, &paths.json)?;
+    bvh::write_baked(&baked, &paths.bvh)?;
+    gltf::write_baked(&baked, &paths.glb)?;
+    Ok(paths)
+}
+
+/// A checked motion with its body poses solved.
+pub struct Baked<'a> {
+    pub motion: &'a Motion,
+    pub rig: &'a Rig,
+    pub poses: Vec<BodyPose>,
+}
+
+impl<'a> Baked<'a> {
+    /// Check the motion (a positive finite frame rate, at least one frame, 52 face weights
+    /// per frame) and solve every frame's pose.
+    pub fn new(motion: &'a Motion, rig: &'a Rig) -> Result<Baked<'a>, ExportError> {
+        let bad = |reason: String| Err(ExportError::BadMotion { reason });
+        if !(motion.fps.is_finite() && motion.fps > 0.0) {
+            return bad(format!("fps = {} is not a positive number", motion.fps));
+        }
+        if motion.frames.is_empty() {
+            return bad("no frames to export".into());
+        }
+        for (i, f) in motion.frames.iter().enumerate() {
+            if f.face.len() != super::ARKIT_NAMES.len() {
+                return bad(format!("frame {i}: {} face weights, expected {}", f.face.len(), super::ARKIT_NAMES.len()));
+            }
+        }
+        Ok(Baked { motion, rig, poses: body_ik::solve_motion(rig, motion) })
+    }
+
+    /// Time of frame `i`, s.
+    pub fn time_s(&self, i: usize) -> f64 {
+        i as f64 / self.motion.fps
+    }
+}
+
+/// A kit-frame point in the Y-up frame of BVH and glTF.
+pub fn y_up(v: Vector3<f32>) -> [f32; 3] {
+    [-v.x, v.z, v.y]
+}
+
+/// A kit-frame rotation in the Y-up frame, as (w, x, y, z).
+pub fn y_up_rot(q: &UnitQuaternion<f32>) -> [f32; 4] {
+    [q.w, -q.i, q.k, q.j]
+}
+
+/// Write a file atomically: a temporary sibling, flushed and synced, renamed into place.
+/// `fill` writes the content; on any error the temporary file is removed.
+pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<(), ExportError> {
+    let io = |source| ExportError::Io { path: path.to_path_buf(), source };
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let file = std::fs::File::create(&tmp)?;
+        let mut w = std::io::BufWriter::new(file);
+        fill(&mut w)?;
+        let file = w.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn y_up_maps_rotations_like_points() {
+        let q = UnitQuaternion::from_euler_angles(0.3, -0.7, 1.1);
+        let v = Vector3::new(0.2, -0.5, 0.9);
+        let [w, x, y, z] = y_up_rot(&q);
+        let q2 = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+        let a = Vector3::from(y_up(q * v));
+        let b = q2 * Vector3::from(y_up(v));
+        assert!((a - b).norm() < 1e-6, "{a} {b}");
+    }
+
+    #[test]
+    fn a_failed_write_leaves_no_file() {
+        let dir = std::env::temp_dir().join(format!("drumsim-atomic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("x.json");
+        let err = write_atomic(&path, |w: &mut dyn Write| {
+            w.write_all(b"{\"half\":")?;
+            Err(std::io::Error::other("disk full"))
+        });
+        assert!(matches!(err, Err(ExportError::Io { .. })));
+        assert!(!path.exists());
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "temporary file left behind");
+        write_atomic(&path, |w: &mut dyn Write| w.write_all(b"{}")).unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "{}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,380 @@
+//! The motion exports (JSON, BVH, binary glTF) on a synthetic performance: hands circling over
+//! the default kit's snare, a swaying chest, feet on the pedals. Each file is read back and
+//! checked against the rig; the glTF goes through the Khronos validator when
+//! DRUMSIM_GLTF_VALIDATOR names its script (scripts/gltf-validate.js), the BVH through
+//! `assimp info` when assimp is installed.
+
+use drumsim::kit::Kit;
+use drumsim::motion::export::{self, ExportError};
+use drumsim::motion::rig::{Rig, HAND};
+use drumsim::motion::{Motion, MotionFrame, Pose, ARKIT_NAMES, FPS, STICK_TIP_LOCAL};
+use nalgebra::{UnitQuaternion, Vector3};
+use std::path::{Path, PathBuf};
+
+/// `seconds` of hands circling 12 cm above the snare (2 turns a second, opposite phases),
+/// a chest and head swaying at 0.5 Hz, feet on the hi-hat and kick pedals.
+fn synthetic_motion(rig: &Rig, seconds: f64) -> Motion {
+    let kit = Kit::builtin_default();
+    let snare = Vector3::from(kit.piece("snare").expect("default kit has a snare").position_m);
+    let rest = rig.rest_positions();
+    let q = |r: UnitQuaternion<f32>| [r.w, r.i, r.j, r.k];
+    let frames = (0..(seconds * FPS) as usize)
+        .map(|i| {
+            let t = (i as f64 / FPS) as f32;
+            let hands = std::array::from_fn(|side| {
+                let out = if side == 0 { -1.0 } else { 1.0 };
+                let phase = std::f32::consts::TAU * 2.0 * t + side as f32 * std::f32::consts::PI;
+                let tip = snare + Vector3::new(0.06 * out + 0.05 * phase.cos(), 0.05 * phase.sin(), 0.12);
+                // Stick forward, tip down 20 degrees, turned 15 degrees towards the middle.
+                let rot = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), out * 0.26)
+                    * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -0.35);
+                let grip = tip - rot * Vector3::from(STICK_TIP_LOCAL);
+                Pose { pos: grip.into(), rot: q(rot) }
+            });
+            let sway = (std::f32::consts::TAU * 0.5 * t).sin();
+            let lean = UnitQuaternion::from_euler_angles(0.02 * sway, 0.0, 0.05 * sway)
+                * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.12);
+            let neck = rest[drumsim::motion::rig::NECK[0]];
+            MotionFrame {
+                hands,
+                chest: Pose { pos: (neck + Vector3::new(0.0, 0.03, -0.005)).into(), rot: q(lean) },
+                head: Pose { pos: rest[drumsim::motion::rig::HEAD].into(), rot: q(lean) },
+                feet: [
+                    Pose { pos: [-0.28, 0.38, 0.1], rot: [1.0, 0.0, 0.0, 0.0] },
+                    Pose { pos: [0.1, 0.55, 0.1 + 0.03 * sway.max(0.0)], rot: [1.0, 0.0, 0.0, 0.0] },
+                ],
+                face: (0..ARKIT_NAMES.len()).map(|k| (0.5 + 0.5 * (t + k as f32).sin()) * 0.3).collect(),
+                hihat_openness: 0.5 + 0.5 * sway,
+            }
+        })
+        .collect();
+    Motion { fps: FPS, frames }
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("drumsim-exports-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn v3(v: &serde_json::Value) -> Vector3<f32> {
+    Vector3::new(v[0].as_f64().unwrap() as f32, v[1].as_f64().unwrap() as f32, v[2].as_f64().unwrap() as f32)
+}
+
+#[test]
+fn motion_json_holds_bones_tips_face_and_hihat_per_frame() {
+    let rig = Rig::default();
+    let motion = synthetic_motion(&rig, 3.0);
+    let dir = out_dir("json");
+    let paths = export::write_all(&motion, &rig, &dir, "groove").unwrap();
+    assert_eq!(paths.json, dir.join("groove.motion.json"));
+    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&paths.json).unwrap()).unwrap();
+    assert_eq!(doc["fps"].as_f64(), Some(60.0));
+    let bones = doc["bones"].as_array().unwrap();
+    assert_eq!(bones.len(), 57);
+    for (i, b) in bones.iter().enumerate() {
+        assert!(b["parent"].as_u64().is_none_or(|p| (p as usize) < i));
+    }
+    assert_eq!(doc["face_names"].as_array().unwrap().len(), 52);
+    let frames = doc["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), motion.frames.len());
+    let mut worst_grip = 0.0f32;
+    let mut worst_link = 0.0f32;
+    for (f, src) in frames.iter().zip(&motion.frames) {
+        let b = f["bones"].as_array().unwrap();
+        assert_eq!(b.len(), 57);
+        assert_eq!(f["face"].as_array().unwrap().len(), 52);
+        assert!((f["hihat_openness"].as_f64().unwrap() as f32 - src.hihat_openness).abs() < 1e-3);
+        // The hand bone carries the grip to the target, within a millimetre.
+        for side in 0..2 {
+            let h = &b[HAND[side]];
+            let r = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                h[3].as_f64().unwrap() as f32,
+                h[4].as_f64().unwrap() as f32,
+                h[5].as_f64().unwrap() as f32,
+                h[6].as_f64().unwrap() as f32,
+            ));
+            let grip = v3(h) + r * rig.grip_local;
+            worst_grip = worst_grip.max((grip - Vector3::from(src.hands[side].pos)).norm());
+            let tip = v3(&f["tips"][side]);
+            assert!((tip - Vector3::from(src.hands[side].stick_tip())).norm() < 1e-4);
+        }
+        // Joint positions keep the rig's link lengths.
+        for (i, bone) in rig.bones.iter().enumerate() {
+            if let Some(p) = bone.parent {
+                let len = (v3(&b[i]) - v3(&b[p])).norm();
+                worst_link = worst_link.max((len - rig.link_length(i)).abs());
+            }
+        }
+    }
+    println!("motion json: worst grip error {:.3} mm, worst link error {:.3} mm", worst_grip * 1e3, worst_link * 1e3);
+    assert!(worst_grip < 1e-3, "grip misses by {worst_grip} m");
+    assert!(worst_link < 1e-4, "link length off by {worst_link} m");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A joint of a parsed BVH.
+struct BvhJoint {
+    parent: Option<usize>,
+    offset: Vector3<f32>,
+    channels: Vec<String>,
+}
+
+/// A minimal BVH reader: the joints (ROOT and JOINT, not End Site) and the frames' values.
+fn read_bvh(text: &str) -> (Vec<BvhJoint>, Vec<Vec<f32>>, f32) {
+    let mut joints: Vec<BvhJoint> = vec![];
+    let mut stack: Vec<Option<usize>> = vec![];
+    let mut lines = text.lines().map(str::trim);
+    assert_eq!(lines.next(), Some("HIERARCHY"));
+    let mut pending: Option<Option<usize>> = None; // the parent of a joint just opened
+    for line in lines.by_ref() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.first().copied() {
+            Some("ROOT") | Some("JOINT") => {
+                let parent = stack.iter().rev().flatten().next().copied();
+                joints.push(BvhJoint { parent, offset: Vector3::zeros(), channels: vec![] });
+                pending = Some(Some(joints.len() - 1));
+            }
+            Some("End") => pending = Some(None),
+            Some("{") => stack.push(pending.take().expect("{ without a joint")),
+            Some("}") => {
+                stack.pop().expect("unbalanced }");
+            }
+            Some("OFFSET") => {
+                if let Some(Some(j)) = stack.last() {
+                    let v: Vec<f32> = words[1..].iter().map(|w| w.parse().unwrap()).collect();
+                    joints[*j].offset = Vector3::new(v[0], v[1], v[2]);
+                }
+            }
+            Some("CHANNELS") => {
+                let j = stack.last().unwrap().unwrap();
+                let n: usize = words[1].parse().unwrap();
+                joints[j].channels = words[2..].iter().map(|w| w.to_string()).collect();
+                assert_eq!(joints[j].channels.len(), n);
+            }
+            Some("MOTION") => break,
+            other => panic!("unexpected BVH line {other:?}"),
+        }
+    }
+    assert!(stack.is_empty(), "unbalanced braces");
+    let frames_line = lines.next().unwrap();
+    let count: usize = frames_line.strip_prefix("Frames:").unwrap().trim().parse().unwrap();
+    let dt: f32 = lines.next().unwrap().strip_prefix("Frame Time:").unwrap().trim().parse().unwrap();
+    let values: Vec<Vec<f32>> =
+        lines.filter(|l| !l.is_empty()).map(|l| l.split_whitespace().map(|w| w.parse().unwrap()).collect()).collect();
+    assert_eq!(values.len(), count, "Frames: says {count}");
+    (joints, values, dt)
+}
+
+/// World positions of the joints of one BVH frame (channels applied in their listed order).
+fn bvh_world(joints: &[BvhJoint], values: &[f32]) -> Vec<Vector3<f32>> {
+    let mut world: Vec<(Vector3<f32>, UnitQuaternion<f32>)> = vec![];
+    let mut k = 0;
+    for j in joints {
+        let mut pos = j.offset;
+        let mut rot = UnitQuaternion::identity();
+        for c in &j.channels {
+            let v = values[k];
+            k += 1;
+            let axis = |a| UnitQuaternion::from_axis_angle(&a, v.to_radians());
+            match c.as_str() {
+                "Xposition" => pos.x = v,
+                "Yposition" => pos.y = v,
+                "Zposition" => pos.z = v,
+                "Xrotation" => rot *= axis(Vector3::x_axis()),
+                "Yrotation" => rot *= axis(Vector3::y_axis()),
+                "Zrotation" => rot *= axis(Vector3::z_axis()),
+                other => panic!("channel {other}"),
+            }
+        }
+        world.push(match j.parent {
+            None => (pos, rot),
+            Some(p) => (world[p].0 + world[p].1 * j.offset, world[p].1 * rot),
+        });
+    }
+    assert_eq!(k, values.len(), "values per frame");
+    world.into_iter().map(|w| w.0).collect()
+}
+
+#[test]
+fn bvh_parses_back_to_57_joints_that_match_the_rig() {
+    let rig = Rig::default();
+    let motion = synthetic_motion(&rig, 2.0);
+    let dir = out_dir("bvh");
+    let path = dir.join("groove.bvh");
+    export::bvh::write(&motion, &rig, &path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let (joints, values, dt) = read_bvh(&text);
+    assert_eq!(joints.len(), 57);
+    assert_eq!(values.len(), motion.frames.len());
+    assert!((dt - 1.0 / 60.0).abs() < 1e-6);
+    assert!(values.iter().all(|v| v.len() == 6 + 56 * 3));
+    // Forward kinematics of the BVH equals the rig's, in centimetres and Y-up.
+    let poses = drumsim::motion::body_ik::solve_motion(&rig, &motion);
+    let mut worst = 0.0f32;
+    for (pose, v) in poses.iter().zip(&values).step_by(7) {
+        let bvh = bvh_world(&joints, v);
+        for ((p, _), b) in rig.world(pose).iter().zip(&bvh) {
+            let expect = Vector3::from(export::y_up(*p)) * 100.0;
+            worst = worst.max((expect - b).norm());
+        }
+    }
+    println!("bvh: worst joint position difference to the rig {worst:.4} cm");
+    assert!(worst < 0.05, "BVH joints off the rig by {worst} cm");
+
+    if let Some(report) = assimp_info(&path) {
+        // assimp makes a node of every joint and of every End Site, and animates the joints.
+        let leaves = (0..57).filter(|&i| !rig.bones.iter().any(|b| b.parent == Some(i))).count();
+        let nodes = assimp_count(&report, "Nodes:");
+        let channels = assimp_count(&report, "Animation Channels:");
+        println!("assimp info: {nodes:?} nodes, {channels:?} animation channels");
+        assert_eq!(channels, Some(57), "assimp report:\n{report}");
+        assert_eq!(nodes, Some(57 + leaves), "assimp report:\n{report}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `assimp info FILE`'s report, or None (with a note) when assimp is not installed.
+fn assimp_info(path: &Path) -> Option<String> {
+    match std::process::Command::new("assimp").arg("info").arg(path).output() {
+        Ok(out) if out.status.success() => Some(String::from_utf8_lossy(&out.stdout).into_owned()),
+        Ok(out) => panic!("assimp info {} failed: {}", path.display(), String::from_utf8_lossy(&out.stderr)),
+        Err(_) => {
+            println!("assimp not installed: skipping the assimp check (apt-get install assimp-utils)");
+            None
+        }
+    }
+}
+
+/// The number after `key` in an `assimp info` report.
+fn assimp_count(report: &str, key: &str) -> Option<usize> {
+    report.lines().find_map(|l| l.trim().strip_prefix(key).and_then(|r| r.trim().parse().ok()))
+}
+
+/// World joint positions of frame `k` of a GLB's animation 0: node translations, the
+/// animated root translation and rotations, composed down the node tree.
+fn glb_world(doc: &serde_json::Value, bin: &[u8], k: usize, joints: usize) -> Vec<Vector3<f32>> {
+    let floats = |acc: usize, width: usize| -> Vec<f32> {
+        let a = &doc["accessors"][acc];
+        let view = &doc["bufferViews"][a["bufferView"].as_u64().unwrap() as usize];
+        let at = view["byteOffset"].as_u64().unwrap() as usize + k * width * 4;
+        (0..width).map(|c| f32::from_le_bytes(bin[at + 4 * c..at + 4 * c + 4].try_into().unwrap())).collect()
+    };
+    let nodes = doc["nodes"].as_array().unwrap();
+    let mut parent = vec![None; joints];
+    for (i, n) in nodes.iter().enumerate().take(joints) {
+        for c in n["children"].as_array().into_iter().flatten() {
+            parent[c.as_u64().unwrap() as usize] = Some(i);
+        }
+    }
+    let mut translation: Vec<Vector3<f32>> = nodes.iter().take(joints).map(|n| v3(&n["translation"])).collect();
+    let mut rotation = vec![UnitQuaternion::identity(); joints];
+    let anim = &doc["animations"][0];
+    for ch in anim["channels"].as_array().unwrap() {
+        let node = ch["target"]["node"].as_u64().unwrap() as usize;
+        let sampler = &anim["samplers"][ch["sampler"].as_u64().unwrap() as usize];
+        let out = sampler["output"].as_u64().unwrap() as usize;
+        match ch["target"]["path"].as_str().unwrap() {
+            "translation" => translation[node] = Vector3::from_vec(floats(out, 3)),
+            "rotation" => {
+                let q = floats(out, 4); // x, y, z, w
+                rotation[node] = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[3], q[0], q[1], q[2]));
+            }
+            other => panic!("animated {other}"),
+        }
+    }
+    let mut world: Vec<(Vector3<f32>, UnitQuaternion<f32>)> = vec![];
+    for i in 0..joints {
+        world.push(match parent[i] {
+            None => (translation[i], rotation[i]),
+            Some(p) => (world[p].0 + world[p].1 * translation[i], world[p].1 * rotation[i]),
+        });
+    }
+    world.into_iter().map(|w| w.0).collect()
+}
+
+/// The JSON chunk of a GLB file, after checking the container.
+fn glb_json(bytes: &[u8]) -> serde_json::Value {
+    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().unwrap()) as usize;
+    assert_eq!(&bytes[0..4], b"glTF");
+    assert_eq!(u32_at(4), 2);
+    assert_eq!(u32_at(8), bytes.len());
+    let json_len = u32_at(12);
+    assert_eq!(&bytes[16..20], b"JSON");
+    assert_eq!(json_len % 4, 0);
+    let bin_at = 20 + json_len;
+    assert_eq!(&bytes[bin_at + 4..bin_at + 8], b"BIN\0");
+    assert_eq!(bin_at + 8 + u32_at(bin_at), bytes.len());
+    serde_json::from_slice(&bytes[20..20 + json_len]).unwrap()
+}
+
+#[test]
+fn glb_has_the_skin_and_one_animation_and_validates() {
+    let rig = Rig::default();
+    let motion = synthetic_motion(&rig, 3.0);
+    let dir = out_dir("glb");
+    let path = dir.join("groove.glb");
+    export::gltf::write(&motion, &rig, &path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let doc = glb_json(&bytes);
+    assert_eq!(doc["skins"][0]["joints"].as_array().unwrap().len(), 57);
+    // The animated skeleton is the rig's, in metres and Y-up.
+    let bin = &bytes[20 + u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize + 8..];
+    let poses = drumsim::motion::body_ik::solve_motion(&rig, &motion);
+    let mut worst = 0.0f32;
+    for k in (0..poses.len()).step_by(11) {
+        for ((p, _), g) in rig.world(&poses[k]).iter().zip(glb_world(&doc, bin, k, 57)) {
+            worst = worst.max((Vector3::from(export::y_up(*p)) - g).norm());
+        }
+    }
+    println!("glb: worst joint position difference to the rig {:.4} mm", worst * 1e3);
+    assert!(worst < 1e-4, "GLB joints off the rig by {worst} m");
+    let anim = &doc["animations"][0];
+    assert_eq!(anim["channels"].as_array().unwrap().len(), 1 + 57);
+    let input = anim["samplers"][0]["input"].as_u64().unwrap() as usize;
+    let times = &doc["accessors"][input];
+    assert_eq!(times["count"].as_u64().unwrap() as usize, motion.frames.len());
+    let last = (motion.frames.len() - 1) as f64 / 60.0;
+    assert!((times["max"][0].as_f64().unwrap() - last).abs() < 1e-5);
+
+    match std::env::var_os("DRUMSIM_GLTF_VALIDATOR") {
+        Some(script) => {
+            let out = std::process::Command::new("node").arg(&script).arg(&path).output().expect("run node");
+            let report = String::from_utf8_lossy(&out.stdout);
+            println!("gltf-validator: {report}");
+            let errors = report
+                .lines()
+                .next()
+                .and_then(|l| l.strip_prefix("errors="))
+                .and_then(|r| r.split_whitespace().next())
+                .and_then(|n| n.parse::<usize>().ok())
+                .unwrap_or_else(|| panic!("no report from {script:?}: {}", String::from_utf8_lossy(&out.stderr)));
+            assert_eq!(errors, 0, "{report}");
+        }
+        None => println!("DRUMSIM_GLTF_VALIDATOR not set: skipping the Khronos glTF validator"),
+    }
+    if let Some(report) = assimp_info(&path) {
+        assert_eq!(assimp_count(&report, "Bones:"), Some(57), "assimp report:\n{report}");
+        assert_eq!(assimp_count(&report, "Animations:"), Some(1), "assimp report:\n{report}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bad_motion_and_bad_folders_are_errors_that_write_nothing() {
+    let rig = Rig::default();
+    let dir = out_dir("bad");
+    let empty = Motion { fps: FPS, frames: vec![] };
+    let err = export::write_all(&empty, &rig, &dir, "empty").unwrap_err();
+    assert!(matches!(err, ExportError::BadMotion { .. }), "{err}");
+    let mut short_face = synthetic_motion(&rig, 0.1);
+    short_face.frames[3].face.pop();
+    let err = export::write_all(&short_face, &rig, &dir, "face").unwrap_err();
+    assert!(err.to_string().contains("frame 3"), "{err}");
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+    let missing: &Path = &dir.join("no/such/folder");
+    let err = export::write_all(&synthetic_motion(&rig, 0.1), &rig, missing, "song").unwrap_err();
+    assert!(err.to_string().contains("no/such/folder"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
