@@ -4,6 +4,7 @@
 
 pub mod body_ik;
 pub mod export;
+pub mod plan;
 pub mod rig;
 pub mod track;
 pub mod upper;

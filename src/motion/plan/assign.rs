@@ -1,0 +1,185 @@
+//! Which hand plays each note: dynamic programming over the notes in time order.
+//!
+//! State after note i: the hand that played it, and the last note the other hand played
+//! (within the last `memory` notes; older counts as "free"). A note costs the distance from
+//! the assigned hand's predicted tip to its strike point; a hand asked to play two notes
+//! faster than it can (`min_gap_s` on one piece, plus travel at `travel_mps` between
+//! pieces) pays `infeasible` per violation. The cheapest path wins; notes on it that still
+//! violate a hand's limits (three notes at once for two hands) are dropped and counted,
+//! never played impossibly.
+
+use super::HandNote;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AssignSettings {
+    /// Shortest time between two strokes of one hand on one piece, seconds.
+    pub min_gap_s: f64,
+    /// Extra time a hand needs to leave a piece for another, seconds, plus the distance at
+    /// this speed.
+    pub switch_s: f64,
+    pub travel_mps: f64,
+    /// Cost per metre between a hand's predicted tip and the strike point.
+    pub per_metre: f64,
+    pub infeasible: f64,
+    /// How many notes back the other hand's last note is remembered.
+    pub memory: usize,
+}
+
+impl Default for AssignSettings {
+    fn default() -> Self {
+        AssignSettings {
+            min_gap_s: 0.035,
+            switch_s: 0.030,
+            travel_mps: 4.0,
+            per_metre: 10.0,
+            infeasible: 1000.0,
+            memory: 48,
+        }
+    }
+}
+
+/// The hand of every note (0 left, 1 right), `None` for dropped notes.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Assignment {
+    pub hands: Vec<Option<usize>>,
+    pub dropped: usize,
+}
+
+fn dist(a: [f32; 3], b: [f32; 3]) -> f64 {
+    a.iter().zip(&b).map(|(x, y)| ((x - y) as f64).powi(2)).sum::<f64>().sqrt()
+}
+
+/// Can one hand play `a` then `b`?
+fn feasible(a: &HandNote, b: &HandNote, s: &AssignSettings) -> bool {
+    let gap = b.time_s - a.time_s;
+    let need = if a.piece == b.piece {
+        s.min_gap_s
+    } else {
+        s.min_gap_s.max(s.switch_s + dist(a.point, b.point) / s.travel_mps)
+    };
+    gap + 1e-9 >= need
+}
+
+const FREE: usize = usize::MAX;
+
+/// Assign `notes` (sorted by time) to hands. `predicted(hand, time_s)` is the hand model's
+/// stick tip.
+pub fn assign_hands(notes: &[HandNote], predicted: &dyn Fn(usize, f64) -> [f32; 3], s: &AssignSettings) -> Assignment {
+    let n = notes.len();
+    if n == 0 {
+        return Assignment::default();
+    }
+    // Per step, the live states: (hand of note i, other hand's last note or FREE), their
+    // cost and their parent state's index in the previous step.
+    let mut steps: Vec<Vec<((usize, usize), f64, usize)>> = Vec::with_capacity(n);
+    let here = |i: usize, h: usize| s.per_metre * dist(predicted(h, notes[i].time_s), notes[i].point);
+    steps.push((0..2).map(|h| ((h, FREE), here(0, h), 0)).collect());
+    for i in 1..n {
+        let mut next: Vec<((usize, usize), f64, usize)> = Vec::new();
+        let mut put = |state: (usize, usize), cost: f64, parent: usize| match next.iter_mut().find(|e| e.0 == state) {
+            Some(e) if e.1 <= cost => {}
+            Some(e) => *e = (state, cost, parent),
+            None => next.push((state, cost, parent)),
+        };
+        for (pi, &((h, k), cost, _)) in steps[i - 1].iter().enumerate() {
+            // The same hand again: the other hand's last note stays (or is forgotten).
+            let k_same = if k != FREE && i - k > s.memory { FREE } else { k };
+            let pen = if feasible(&notes[i - 1], &notes[i], s) { 0.0 } else { s.infeasible };
+            put((h, k_same), cost + here(i, h) + pen, pi);
+            // The other hand: it last played note k.
+            let pen = if k == FREE || feasible(&notes[k], &notes[i], s) { 0.0 } else { s.infeasible };
+            put((1 - h, i - 1), cost + here(i, 1 - h) + pen, pi);
+        }
+        steps.push(next);
+    }
+    // Walk back from the cheapest end state.
+    let mut hands = vec![None; n];
+    let last = &steps[n - 1];
+    let mut at = (0..last.len()).min_by(|&a, &b| last[a].1.total_cmp(&last[b].1)).unwrap_or(0);
+    for i in (0..n).rev() {
+        let ((h, _), _, parent) = steps[i][at];
+        hands[i] = Some(h);
+        at = parent;
+    }
+    // Drop what a hand still cannot play: keep a hand's earlier note, drop the later.
+    let mut last_of: [Option<usize>; 2] = [None, None];
+    let mut dropped = 0;
+    for i in 0..n {
+        let Some(h) = hands[i] else { continue };
+        if let Some(p) = last_of[h] {
+            if !feasible(&notes[p], &notes[i], s) {
+                hands[i] = None;
+                dropped += 1;
+                continue;
+            }
+        }
+        last_of[h] = Some(i);
+    }
+    Assignment { hands, dropped }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn note(t: f64, piece: usize, x: f32) -> HandNote {
+        HandNote { time_s: t, piece, point: [x, 0.4, 0.7], normal: [0.0, 0.0, 1.0], velocity: 90, speed_mps: 3.0 }
+    }
+
+    #[test]
+    fn each_note_goes_to_the_hand_predicted_nearest() {
+        // Hi-hat (x = -0.3) eighths predicted for the right hand, snare (x = -0.1) backbeats
+        // predicted for the left.
+        let mut notes = Vec::new();
+        for k in 0..16 {
+            notes.push(note(k as f64 * 0.25, 1, -0.3));
+            if k % 4 == 2 {
+                notes.push(note(k as f64 * 0.25, 0, -0.1));
+            }
+        }
+        notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        let pred = |h: usize, _t: f64| if h == 1 { [-0.3, 0.4, 0.75] } else { [-0.1, 0.4, 0.75] };
+        let a = assign_hands(&notes, &pred, &AssignSettings::default());
+        assert_eq!(a.dropped, 0);
+        for (n, h) in notes.iter().zip(&a.hands) {
+            assert_eq!(*h, Some(if n.piece == 1 { 1 } else { 0 }), "{n:?}");
+        }
+    }
+
+    #[test]
+    fn a_roll_too_fast_for_one_hand_alternates() {
+        // 32nd notes at 120 BPM (62.5 ms) on the snare are fine for one hand; at 25 ms they
+        // are not, even though the prediction says "right hand" every time.
+        let notes: Vec<_> = (0..12).map(|k| note(k as f64 * 0.025, 0, -0.1)).collect();
+        let pred = |_h: usize, _t: f64| [-0.1, 0.4, 0.75];
+        let a = assign_hands(&notes, &pred, &AssignSettings::default());
+        assert_eq!(a.dropped, 0);
+        let hands: Vec<usize> = a.hands.iter().map(|h| h.unwrap()).collect();
+        assert!(hands.windows(2).all(|w| w[0] != w[1]), "{hands:?}");
+    }
+
+    #[test]
+    fn travel_time_splits_a_fast_move_across_the_kit() {
+        // Floor tom (x = 0.5) then hi-hat (x = -0.35) 60 ms later: one hand cannot travel
+        // 0.85 m in that time, so the two notes go to different hands even if both are
+        // predicted right.
+        let notes = vec![note(0.0, 3, 0.5), note(0.06, 1, -0.35)];
+        let pred = |_h: usize, _t: f64| [0.0, 0.4, 0.75];
+        let a = assign_hands(&notes, &pred, &AssignSettings::default());
+        assert_ne!(a.hands[0], a.hands[1]);
+    }
+
+    #[test]
+    fn three_notes_at_once_drop_one_and_say_so() {
+        let notes = vec![note(0.0, 0, -0.1), note(0.0, 1, -0.3), note(0.0, 2, 0.3), note(0.5, 0, -0.1)];
+        let pred = |h: usize, _t: f64| if h == 1 { [0.3, 0.4, 0.75] } else { [-0.1, 0.4, 0.75] };
+        let a = assign_hands(&notes, &pred, &AssignSettings::default());
+        assert_eq!(a.dropped, 1);
+        assert_eq!(a.hands.iter().filter(|h| h.is_none()).count(), 1);
+        assert!(a.hands[3].is_some());
+        // The two kept at time 0 are on different hands.
+        let kept: Vec<usize> = a.hands[..3].iter().flatten().copied().collect();
+        assert_eq!(kept.len(), 2);
+        assert_ne!(kept[0], kept[1]);
+    }
+}

@@ -1,0 +1,280 @@
+//! Each hand's corrected trajectory: the predicted tip, moved onto its notes' strike
+//! points by a smooth offset, with a stroke along each surface's normal around each note.
+
+use super::{Assignment, HandNote};
+use crate::motion::track::{Pose, STICK_TIP_LOCAL};
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StrokeSettings {
+    /// The tip rests on the surface this long either side of the onset (half a 60 fps
+    /// frame: the frame nearest the onset always shows the hit).
+    pub dwell_s: f64,
+    /// Longest preparation and rebound around a note, seconds.
+    pub window_s: f64,
+    /// Preparatory lift at velocity 1 and 127, metres (it grows as velocity^1.5).
+    pub lift_m: (f32, f32),
+    /// Rebound speed as a fraction of the downstroke's.
+    pub rebound: f32,
+    /// Before a hand's first note and after its last, the offset fades over this long.
+    pub fade_s: f64,
+}
+
+impl Default for StrokeSettings {
+    fn default() -> Self {
+        StrokeSettings { dwell_s: 1.0 / 120.0, window_s: 0.25, lift_m: (0.02, 0.25), rebound: 0.6, fade_s: 0.5 }
+    }
+}
+
+/// The planned hands: evaluate anywhere in time (`tip`, `pose`), or sample at a rate.
+#[derive(Debug, Clone)]
+pub struct PlannedHands {
+    predicted: Vec<[Pose; 2]>,
+    fps: f64,
+    /// Per hand, its notes in time order with the offset that puts the predicted tip on
+    /// the strike point.
+    notes: [Vec<(HandNote, [f32; 3])>; 2],
+    settings: StrokeSettings,
+}
+
+fn add(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn scale(a: [f32; 3], k: f32) -> [f32; 3] {
+    [a[0] * k, a[1] * k, a[2] * k]
+}
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+/// Minimum-jerk blend 0 -> 1.
+fn mj(u: f64) -> f32 {
+    let u = u.clamp(0.0, 1.0);
+    (u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)) as f32
+}
+
+/// The hand poses of `predicted` (at `fps`) at time `t`: positions interpolated,
+/// rotations normalised-lerped.
+fn predicted_pose(predicted: &[[Pose; 2]], fps: f64, hand: usize, t: f64) -> Pose {
+    if predicted.is_empty() {
+        return Pose::IDENTITY;
+    }
+    let x = (t * fps).clamp(0.0, (predicted.len() - 1) as f64);
+    let k = x.floor() as usize;
+    let k1 = (k + 1).min(predicted.len() - 1);
+    let a = (x - k as f64) as f32;
+    let (p, q) = (predicted[k][hand], predicted[k1][hand]);
+    let sign = if dot4(p.rot, q.rot) < 0.0 { -1.0 } else { 1.0 };
+    let mut rot: [f32; 4] = std::array::from_fn(|i| p.rot[i] + (sign * q.rot[i] - p.rot[i]) * a);
+    let n = dot4(rot, rot).sqrt();
+    rot = if n > 1e-6 { rot.map(|v| v / n) } else { Pose::IDENTITY.rot };
+    Pose { pos: add(p.pos, scale(sub(q.pos, p.pos), a)), rot }
+}
+
+fn dot4(a: [f32; 4], b: [f32; 4]) -> f32 {
+    a.iter().zip(&b).map(|(x, y)| x * y).sum()
+}
+
+/// Plan both hands: `predicted` are the hand model's poses at `fps`, `notes` sorted by time,
+/// `assignment` from [`super::assign_hands`].
+pub fn plan_hands(
+    predicted: &[[Pose; 2]],
+    fps: f64,
+    notes: &[HandNote],
+    assignment: &Assignment,
+    settings: StrokeSettings,
+) -> PlannedHands {
+    let mut per_hand: [Vec<(HandNote, [f32; 3])>; 2] = [Vec::new(), Vec::new()];
+    for (n, h) in notes.iter().zip(&assignment.hands) {
+        if let Some(h) = *h {
+            let tip = predicted_pose(predicted, fps, h, n.time_s).stick_tip();
+            per_hand[h].push((*n, sub(n.point, tip)));
+        }
+    }
+    PlannedHands { predicted: predicted.to_vec(), fps, notes: per_hand, settings }
+}
+
+impl PlannedHands {
+    /// The notes each hand plays.
+    pub fn notes(&self, hand: usize) -> impl Iterator<Item = &HandNote> {
+        self.notes[hand].iter().map(|(n, _)| n)
+    }
+
+    /// The offset added to the predicted tip at `t`.
+    fn offset(&self, hand: usize, t: f64) -> [f32; 3] {
+        let ns = &self.notes[hand];
+        let Some(first) = ns.first() else { return [0.0; 3] };
+        let i = ns.partition_point(|(n, _)| n.time_s <= t);
+        if i == 0 {
+            return scale(first.1, mj(1.0 - (first.0.time_s - t) / self.settings.fade_s));
+        }
+        let (a, oa) = ns[i - 1];
+        match ns.get(i) {
+            Some(&(b, ob)) => add(oa, scale(sub(ob, oa), mj((t - a.time_s) / (b.time_s - a.time_s).max(1e-9)))),
+            None => scale(oa, 1.0 - mj((t - a.time_s) / self.settings.fade_s)),
+        }
+    }
+
+    /// The stroke's height above note `k`'s surface at `t`, and its weight (1 on the
+    /// surface, 0 at the window's edges).
+    fn stroke(&self, hand: usize, k: usize, t: f64) -> (f32, f32) {
+        let s = &self.settings;
+        let ns = &self.notes[hand];
+        let n = &ns[k].0;
+        let before = k.checked_sub(1).map_or(s.window_s, |j| (0.5 * (n.time_s - ns[j].0.time_s)).min(s.window_s));
+        let after = ns.get(k + 1).map_or(s.window_s, |m| (0.5 * (m.0.time_s - n.time_s)).min(s.window_s));
+        let d = s.dwell_s.min(0.5 * before).min(0.5 * after);
+        let v = (n.velocity.clamp(1, 127) as f32 / 127.0).powf(1.5);
+        let lift = s.lift_m.0 + (s.lift_m.1 - s.lift_m.0) * v;
+        let dt = t - n.time_s;
+        let (tau, span, speed) =
+            if dt < 0.0 { (-dt - d, before - d, n.speed_mps) } else { (dt - d, after - d, n.speed_mps * s.rebound) };
+        if tau <= 0.0 {
+            return (0.0, 1.0);
+        }
+        // Rises at `speed` from the surface and levels off at the lift the time allows.
+        let lift = lift.min(speed * span.max(0.0) as f32);
+        let h = if lift > 0.0 { lift * (speed * tau as f32 / lift).tanh() } else { 0.0 };
+        let w = 0.5 * (1.0 + (std::f64::consts::PI * (tau / span.max(1e-9)).min(1.0)).cos()) as f32;
+        (h, w)
+    }
+
+    /// The planned stick tip of `hand` at `t`.
+    pub fn tip(&self, hand: usize, t: f64) -> [f32; 3] {
+        let p = add(predicted_pose(&self.predicted, self.fps, hand, t).stick_tip(), self.offset(hand, t));
+        let ns = &self.notes[hand];
+        if ns.is_empty() {
+            return p;
+        }
+        // The note whose window holds t: the nearer of its neighbours in time.
+        let i = ns.partition_point(|(n, _)| n.time_s <= t);
+        let k = match (i.checked_sub(1), ns.get(i)) {
+            (Some(a), Some(b)) => {
+                if t - ns[a].0.time_s <= b.0.time_s - t {
+                    a
+                } else {
+                    i
+                }
+            }
+            (Some(a), None) => a,
+            (None, _) => 0,
+        };
+        let n = &ns[k].0;
+        let (h, w) = self.stroke(hand, k, t);
+        let h1 = dot(sub(p, n.point), n.normal);
+        add(p, scale(n.normal, w * (h - h1)))
+    }
+
+    /// The planned hand pose at `t`: the predicted rotation, the grip moved with the tip.
+    pub fn pose(&self, hand: usize, t: f64) -> Pose {
+        let pred = predicted_pose(&self.predicted, self.fps, hand, t);
+        let tip = self.tip(hand, t);
+        let grip = sub(tip, sub(pred.apply(STICK_TIP_LOCAL), pred.pos));
+        Pose { pos: grip, rot: pred.rot }
+    }
+
+    /// Both hands at `frames` frames of `fps`.
+    pub fn sample(&self, fps: f64, frames: usize) -> Vec<[Pose; 2]> {
+        (0..frames).map(|f| [0, 1].map(|h| self.pose(h, f as f64 / fps))).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::plan::{assign_hands, AssignSettings};
+
+    fn still(frames: usize) -> Vec<[Pose; 2]> {
+        // Hands held 20 cm over the kit, sticks pointing forward (+y).
+        let l = Pose { pos: [-0.2, 0.1, 0.9], rot: [1.0, 0.0, 0.0, 0.0] };
+        let r = Pose { pos: [0.2, 0.1, 0.9], rot: [1.0, 0.0, 0.0, 0.0] };
+        vec![[l, r]; frames]
+    }
+
+    fn note(t: f64, x: f32, velocity: u8) -> HandNote {
+        let z = 0.7;
+        HandNote {
+            time_s: t,
+            piece: 0,
+            point: [x, 0.45, z],
+            normal: [0.0, 0.0, 1.0],
+            velocity,
+            speed_mps: 1.0 + 4.0 * velocity as f32 / 127.0,
+        }
+    }
+
+    fn planned(notes: &[HandNote]) -> PlannedHands {
+        let pred = still(600);
+        let p = |h: usize, t: f64| predicted_pose(&pred, 60.0, h, t).stick_tip();
+        let a = assign_hands(notes, &p, &AssignSettings::default());
+        plan_hands(&pred, 60.0, notes, &a, StrokeSettings::default())
+    }
+
+    #[test]
+    fn the_frame_nearest_each_onset_has_the_tip_on_the_strike_point() {
+        let notes: Vec<_> = (0..20)
+            .map(|k| note(0.5 + k as f64 * 0.137, if k % 3 == 0 { 0.25 } else { -0.15 }, 40 + 4 * k as u8))
+            .collect();
+        let plan = planned(&notes);
+        let frames = plan.sample(60.0, 600);
+        for n in &notes {
+            let f = (n.time_s * 60.0).round() as usize;
+            let ok = (0..2).any(|h| {
+                let tip = frames[f][h].stick_tip();
+                sub(tip, n.point).iter().all(|d| d.abs() < 1e-3)
+            });
+            assert!(ok, "note at {} s", n.time_s);
+        }
+    }
+
+    #[test]
+    fn the_tip_comes_down_from_above_faster_for_louder_notes() {
+        for (vel, min_speed) in [(30u8, 1.0f32), (120, 4.0)] {
+            let n = note(1.0, -0.15, vel);
+            let plan = planned(&[n]);
+            let h = plan.notes(0).count() + plan.notes(1).count();
+            assert_eq!(h, 1);
+            let hand = if plan.notes(0).count() == 1 { 0 } else { 1 };
+            // Above the surface before the hit, and moving down into it.
+            let height = |t: f64| plan.tip(hand, t)[2] - n.point[2];
+            assert!(height(0.95) > 0.01, "{}", height(0.95));
+            let speed = (height(1.0 - 1.0 / 120.0 - 0.004) - height(1.0 - 1.0 / 120.0)) / 0.004;
+            assert!(speed > 0.8 * min_speed, "velocity {vel}: {speed} m/s");
+            assert!(height(1.0).abs() < 1e-6);
+        }
+        // The lift grows with velocity.
+        let lift = |vel| {
+            let plan = planned(&[note(1.0, -0.15, vel)]);
+            let hand = if plan.notes(0).count() == 1 { 0 } else { 1 };
+            plan.tip(hand, 0.9)[2] - 0.7
+        };
+        assert!(lift(120) > lift(30) + 0.05, "{} vs {}", lift(120), lift(30));
+    }
+
+    #[test]
+    fn a_moved_kit_moves_the_strikes() {
+        let a = planned(&[note(1.0, -0.15, 100)]);
+        let mut moved = note(1.0, -0.15, 100);
+        moved.point = [-0.3, 0.6, 0.8];
+        let b = planned(&[moved]);
+        let hit = |p: &PlannedHands| (0..2).map(|h| p.tip(h, 1.0)).collect::<Vec<_>>();
+        assert!(hit(&a).iter().any(|t| sub(*t, [-0.15, 0.45, 0.7]).iter().all(|d| d.abs() < 1e-4)));
+        assert!(hit(&b).iter().any(|t| sub(*t, [-0.3, 0.6, 0.8]).iter().all(|d| d.abs() < 1e-4)));
+    }
+
+    #[test]
+    fn between_notes_the_path_is_smooth() {
+        let notes: Vec<_> = (0..8).map(|k| note(0.5 + k as f64 * 0.3, -0.15 + 0.06 * k as f32, 90)).collect();
+        let plan = planned(&notes);
+        // No jumps: consecutive 1 ms samples stay within 1 cm (speeds under 10 m/s).
+        for h in 0..2 {
+            let mut prev = plan.tip(h, 0.0);
+            for k in 1..3000 {
+                let t = plan.tip(h, k as f64 * 1e-3);
+                assert!(sub(t, prev).iter().all(|d| d.abs() < 0.01), "hand {h} at {} ms", k);
+                prev = t;
+            }
+        }
+    }
+}
