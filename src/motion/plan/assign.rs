@@ -62,6 +62,9 @@ fn feasible(a: &HandNote, b: &HandNote, s: &AssignSettings) -> bool {
 
 const FREE: usize = usize::MAX;
 
+/// A DP state (hand of the note, other hand's last note), its cost, its parent's index.
+type Entry = ((usize, usize), f64, usize);
+
 /// Assign `notes` (sorted by time) to hands. `predicted(hand, time_s)` is the hand model's
 /// stick tip.
 pub fn assign_hands(notes: &[HandNote], predicted: &dyn Fn(usize, f64) -> [f32; 3], s: &AssignSettings) -> Assignment {
@@ -71,11 +74,11 @@ pub fn assign_hands(notes: &[HandNote], predicted: &dyn Fn(usize, f64) -> [f32; 
     }
     // Per step, the live states: (hand of note i, other hand's last note or FREE), their
     // cost and their parent state's index in the previous step.
-    let mut steps: Vec<Vec<((usize, usize), f64, usize)>> = Vec::with_capacity(n);
+    let mut steps: Vec<Vec<Entry>> = Vec::with_capacity(n);
     let here = |i: usize, h: usize| s.per_metre * dist(predicted(h, notes[i].time_s), notes[i].point);
     steps.push((0..2).map(|h| ((h, FREE), here(0, h), 0)).collect());
     for i in 1..n {
-        let mut next: Vec<((usize, usize), f64, usize)> = Vec::new();
+        let mut next: Vec<Entry> = Vec::new();
         let mut put = |state: (usize, usize), cost: f64, parent: usize| match next.iter_mut().find(|e| e.0 == state) {
             Some(e) if e.1 <= cost => {}
             Some(e) => *e = (state, cost, parent),
