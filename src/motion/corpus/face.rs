@@ -60,8 +60,8 @@ pub fn face(planned: &[PlannedNote], notes: &[HandNote], _beat: &Beat, frames: u
         smooth(&x, 0.4)
     };
     let blinks = blink_starts(&accents, frames, rng);
-    let (mut blink, mut b) = (vec![0f32; frames], blinks.iter().peekable());
-    while let Some(&s) = b.next() {
+    let mut blink = vec![0f32; frames];
+    for &s in &blinks {
         for (k, w) in BLINK.iter().enumerate() {
             if let Some(x) = blink.get_mut(s + k) {
                 *x = x.max(*w);

@@ -47,7 +47,7 @@ pub fn feet(perf: &Performance, map: &NoteMap, frames: usize, rng: &mut Rng) -> 
     let mut cc = None::<f32>;
     let mut open_from = None::<(usize, f32)>;
     let mut events = perf.events.iter().peekable();
-    for f in 0..frames {
+    for (f, open) in openness.iter_mut().enumerate() {
         // Events that fall in this frame.
         while let Some(e) = events.next_if(|e| frame_of(e.time_s) <= f) {
             match e.kind {
@@ -75,7 +75,7 @@ pub fn feet(perf: &Performance, map: &NoteMap, frames: usize, rng: &mut Rng) -> 
                 _ => {}
             }
         }
-        openness[f] = if has_cc4 {
+        *open = if has_cc4 {
             cc.unwrap_or(0.0)
         } else {
             match open_from {

@@ -118,8 +118,8 @@ pub struct Teaching {
     pub motion: Motion,
     /// Hand notes played, in time order.
     pub notes: Vec<PlannedNote>,
-    /// Hand notes left out: a third (or more) at once, or a second one for the same hand in
-    /// the same frame (see [`sticking`]).
+    /// Hand notes left out: a second note on the same piece in the same frame, or a third (or
+    /// more) hand note at once (see [`sticking`]).
     pub dropped: usize,
     /// Note-ons the map does not know (not played, not in the roll).
     pub unmapped: usize,

@@ -1,6 +1,8 @@
 //! Sticking: which hand plays each hand note, for a right-handed drummer.
 //!
 //! Notes in the same 60 fps frame are simultaneous:
+//! - two or more on one piece are one stroke: the loudest is kept, the rest dropped (an e-kit
+//!   sends a ride's bow and bell, or a snare's head and rim, in the same instant);
 //! - three or more: the least important are dropped until two remain (importance: crash 4,
 //!   snare and toms 3, ride 2, hi-hat 1, then the louder note), and counted in `dropped`;
 //! - two: one per hand by position, the one further right (strike point x) to the right hand,
@@ -66,6 +68,13 @@ pub fn assign(notes: &[HandNote], _kit: &Kit) -> Sticking {
     while start < notes.len() {
         let end = start + notes[start..].iter().take_while(|n| n.frame == notes[start].frame).count();
         let mut group: Vec<usize> = (start..end).collect();
+        // Two notes on one piece in one frame (an e-kit sending bow and bell, a flat flam):
+        // one stroke, the louder.
+        group.sort_by(|&a, &b| notes[a].piece.cmp(&notes[b].piece).then(notes[b].velocity.cmp(&notes[a].velocity)));
+        let before = group.len();
+        group.dedup_by_key(|i| notes[*i].piece);
+        dropped += before - group.len();
+        group.sort();
         if group.len() > 2 {
             let key = |&i: &usize| notes[i].role.importance() + notes[i].velocity as f32 / 256.0;
             group.sort_by(|a, b| key(b).total_cmp(&key(a)).then(a.cmp(b)));
@@ -249,7 +258,7 @@ impl Search<'_> {
                 }
             }
         }
-        for e in 1..n {
+        for (e, from_e) in from.iter_mut().enumerate().skip(1) {
             let mut next = vec![f32::INFINITY; STATES];
             for (si, &c0) in cost.iter().enumerate() {
                 if !c0.is_finite() {
@@ -261,7 +270,7 @@ impl Search<'_> {
                     let ti = state_index(to);
                     if c0 + c < next[ti] {
                         next[ti] = c0 + c;
-                        from[e][ti] = si;
+                        from_e[ti] = si;
                     }
                 };
                 match self.events[e] {
@@ -407,5 +416,16 @@ mod tests {
         assert_eq!(s.dropped, 1);
         assert_eq!(hands_of(&v, &s, "hihat", &kit), [None]);
         assert!(hands_of(&v, &s, "crash", &kit)[0].is_some() && hands_of(&v, &s, "snare", &kit)[0].is_some());
+    }
+
+    #[test]
+    fn two_at_once_on_one_piece_are_one_stroke() {
+        let kit = Kit::builtin_default();
+        let v = sorted(vec![note(&kit, "ride", 1.0, 70), note(&kit, "ride", 1.001, 90), note(&kit, "snare", 1.0, 60)]);
+        let s = assign(&v, &kit);
+        assert_eq!(s.dropped, 1);
+        let ride = hands_of(&v, &s, "ride", &kit);
+        assert_eq!(ride.iter().filter(|h| h.is_some()).count(), 1);
+        assert_eq!(ride[1], Some(RIGHT), "the louder one is kept");
     }
 }
