@@ -2,8 +2,8 @@
 //! - effort with loud, busy passages: brows down, lips pressed, a slight jaw clench forward;
 //! - jaw a little open in fills (runs of drum notes);
 //! - brows up on crashes (decaying over half a second);
-//! - blinks every 2 to 6 s (seeded) and on accents (snare or crash at velocity >= 115, one in
-//!   two, not within 0.5 s of the last blink); a blink closes in 2 frames and opens in 4;
+//! - blinks every 2 to 6 s (seeded) and on accents (snare or crash at velocity >= 115, three in
+//!   ten, not within 1.5 s of the last blink); a blink closes in 2 frames and opens in 4;
 //! - eyes a little down (on the kit), turned toward the working side.
 
 use super::upper::{smooth, Beat};
@@ -11,6 +11,8 @@ use super::{HandNote, PlannedNote, Rng, Role};
 use crate::motion::{ARKIT_NAMES, FPS};
 
 /// Weight profile of a blink, frame by frame.
+/// Shortest time between two blinks, seconds.
+const MIN_BLINK_GAP_S: f64 = 1.5;
 const BLINK: [f32; 6] = [0.6, 1.0, 0.8, 0.5, 0.25, 0.08];
 
 fn idx(name: &str) -> usize {
@@ -105,8 +107,8 @@ pub fn face(planned: &[PlannedNote], notes: &[HandNote], _beat: &Beat, frames: u
         .collect()
 }
 
-/// Frames where blinks start: seeded every 2..6 s, and on half the accents, at least half a
-/// second apart.
+/// Frames where blinks start: seeded every 2..6 s, and on three accents in ten, at least
+/// [`MIN_BLINK_GAP_S`] apart.
 fn blink_starts(accents: &[usize], frames: usize, rng: &mut Rng) -> Vec<usize> {
     let mut starts: Vec<usize> = Vec::new();
     let mut t = (FPS as f32 * (0.5 + 2.0 * rng.unit())) as usize;
@@ -114,11 +116,11 @@ fn blink_starts(accents: &[usize], frames: usize, rng: &mut Rng) -> Vec<usize> {
         starts.push(t);
         t += (FPS as f32 * (2.0 + 4.0 * rng.unit())) as usize;
     }
-    starts.extend(accents.iter().filter(|_| rng.unit() < 0.5));
+    starts.extend(accents.iter().filter(|_| rng.unit() < 0.3));
     starts.sort_unstable();
     let mut kept: Vec<usize> = Vec::with_capacity(starts.len());
     for s in starts {
-        if kept.last().is_none_or(|&k| s >= k + (FPS / 2.0) as usize) {
+        if kept.last().is_none_or(|&k| s >= k + (MIN_BLINK_GAP_S * FPS) as usize) {
             kept.push(s);
         }
     }
@@ -135,7 +137,7 @@ mod tests {
         let b = blink_starts(&[600, 610, 1200], frames, &mut Rng::new(5));
         let n = b.len();
         assert!((10..=35).contains(&n), "{n} blinks a minute");
-        assert!(b.windows(2).all(|w| w[1] - w[0] >= 30));
+        assert!(b.windows(2).all(|w| w[1] - w[0] >= 90));
     }
 
     #[test]

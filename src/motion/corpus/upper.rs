@@ -3,8 +3,10 @@
 //!
 //! The beat is estimated from the notes, not taken from any tempo in the file (GMD files are
 //! played freely against a click): an onset envelope at 60 fps (kick and snare weigh 1, the
-//! rest 0.5, times velocity) is autocorrelated over 60..200 BPM (with a mild preference for
-//! tempi near 110 BPM, so a half or double tempo does not win by a hair), the period refined to
+//! rest 0.5, times velocity) is autocorrelated over 60..200 BPM, each lag scored with its
+//! double and quadruple (a beat repeats at the half bar and the bar; a dotted beat does not) and
+//! a mild preference for tempi near 110 BPM (so a half or double tempo does not win by a
+//! hair), the period refined to
 //! a twentieth of a frame and the phase chosen to put the most onset weight on the beats.
 
 use super::PlannedNote;
@@ -63,8 +65,10 @@ pub fn estimate_beat(perf: &Performance, map: &NoteMap, frames: usize) -> Beat {
     // correlates.
     let env = smooth(&env, 0.03);
     let (min_lag, max_lag) = ((FPS * 60.0 / 200.0) as usize, (FPS * 60.0 / 60.0) as usize);
+    let ac = |lag: usize| -> f32 { (0..env.len().saturating_sub(lag)).map(|i| env[i] * env[i + lag]).sum() };
+    // A beat repeats at the half bar and the bar too (a dotted beat does not).
     let score = |lag: usize| -> f32 {
-        let ac: f32 = (0..env.len().saturating_sub(lag)).map(|i| env[i] * env[i + lag]).sum();
+        let ac = ac(lag) + 0.5 * ac(2 * lag) + 0.5 * ac(4 * lag);
         let bpm = 60.0 * FPS as f32 / lag as f32;
         let pref = (-(bpm / 110.0).ln().powi(2) / (2.0 * 0.5f32.powi(2))).exp();
         ac * (0.6 + 0.4 * pref)
