@@ -3,7 +3,9 @@
 //! exports in their own modules.
 
 pub mod body_ik;
+pub mod corpus;
 pub mod export;
+pub mod mocap;
 pub mod plan;
 pub mod rig;
 pub mod track;

@@ -1,0 +1,148 @@
+//! Feet ("pedal enforcement", DESIGN.md 1a) and hi-hat openness.
+//! - Right foot on the kick pedal: for each kick note it lifts and tilts back (toe up) from
+//!   2..5 frames before the hit (more for louder notes, +-1 frame seeded) and is down at rest
+//!   exactly at the hit's frame.
+//! - Left foot on the hi-hat pedal: raised as far as the hi-hat is open. Openness comes from
+//!   CC4 when the file has it (1 - value / 127, held until the next value), else from the
+//!   notes: an open hi-hat note (its map entry's openness > 0.3) opens it and it stays open
+//!   until a closed hi-hat or pedal note, or at most `OPEN_HOLD_FRAMES`. A hi-hat pedal note
+//!   ("chick") is a press like the kick's.
+
+use super::Rng;
+use crate::midi::roll::frame_of;
+use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
+use crate::motion::Pose;
+
+pub const OPEN_HOLD_FRAMES: usize = 20;
+/// Ankles at rest on the hi-hat pedal (left) and the kick pedal (right).
+pub const FEET_HOME: [[f32; 3]; 2] = [[-0.28, 0.30, 0.10], [0.10, 0.40, 0.10]];
+/// How high the foot lifts at the top of a press, metres, and how far it tilts, degrees.
+pub const PRESS_LIFT_M: f32 = 0.04;
+pub const PRESS_TILT_DEG: f32 = 18.0;
+
+/// Foot poses (left, right) and hi-hat openness per frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Feet {
+    pub feet: Vec<[Pose; 2]>,
+    pub openness: Vec<f32>,
+}
+
+/// Raise `lift` (0..1) for a press whose hit is at frame `hit`.
+fn press(lift: &mut [f32], hit: usize, lead: usize, amount: f32) {
+    for k in 1..=lead {
+        let Some(f) = hit.checked_sub(k) else { break };
+        if let Some(x) = lift.get_mut(f) {
+            // sin over the lead: rising, top near the middle, falling to zero at the hit.
+            let s = 1.0 - k as f32 / (lead + 1) as f32;
+            *x = x.max(amount * (std::f32::consts::PI * s).sin());
+        }
+    }
+}
+
+pub fn feet(perf: &Performance, map: &NoteMap, frames: usize, rng: &mut Rng) -> Feet {
+    let mut kick = vec![0f32; frames];
+    let mut chick = vec![0f32; frames];
+    let has_cc4 = perf.events.iter().any(|e| matches!(e.kind, DrumEventKind::HiHatPedal { .. }));
+    let mut openness = vec![0f32; frames];
+    let mut cc = None::<f32>;
+    let mut open_from = None::<(usize, f32)>;
+    let mut events = perf.events.iter().peekable();
+    for (f, open) in openness.iter_mut().enumerate() {
+        // Events that fall in this frame.
+        while let Some(e) = events.next_if(|e| frame_of(e.time_s) <= f) {
+            match e.kind {
+                DrumEventKind::HiHatPedal { value } => cc = Some(1.0 - value.min(127) as f32 / 127.0),
+                DrumEventKind::NoteOn { note, velocity } => {
+                    let Some(m) = map.entry(note) else { continue };
+                    let v = velocity as f32 / 127.0;
+                    let lead = 2 + (3.0 * v).round() as i64 + (rng.sym() * 1.49).round() as i64;
+                    let lead = lead.clamp(2, 5) as usize;
+                    let hit = frame_of(e.time_s);
+                    let is_hat = m.hihat_openness.is_some() || m.piece == "hihat";
+                    match (m.zone, is_hat) {
+                        (Zone::Pedal, false) => press(&mut kick, hit, lead, 0.4 + 0.6 * v),
+                        (Zone::Pedal, true) => {
+                            press(&mut chick, hit, lead, 0.3 + 0.4 * v);
+                            open_from = None;
+                        }
+                        (_, true) => match m.hihat_openness {
+                            Some(o) if o > 0.3 => open_from = Some((hit, o)),
+                            _ => open_from = None,
+                        },
+                        _ => {}
+                    }
+                }
+                _ => {}
+            }
+        }
+        *open = if has_cc4 {
+            cc.unwrap_or(0.0)
+        } else {
+            match open_from {
+                Some((start, o)) if f < start + OPEN_HOLD_FRAMES => o,
+                _ => 0.0,
+            }
+        };
+    }
+    let feet = (0..frames)
+        .map(|f| {
+            let left_lift = openness[f].max(chick[f]);
+            [foot(FEET_HOME[0], left_lift), foot(FEET_HOME[1], kick[f])]
+        })
+        .collect();
+    Feet { feet, openness }
+}
+
+/// A foot at `home` raised by `lift` (0..1): up and toe tilted back.
+fn foot(home: [f32; 3], lift: f32) -> Pose {
+    let pitch = (PRESS_TILT_DEG * lift).to_radians();
+    Pose {
+        pos: [home[0], home[1], home[2] + PRESS_LIFT_M * lift],
+        rot: [(pitch / 2.0).cos(), (pitch / 2.0).sin(), 0.0, 0.0],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::midi::DrumEvent;
+
+    fn perf(events: Vec<(f64, DrumEventKind)>) -> Performance {
+        let events = events.into_iter().map(|(time_s, kind)| DrumEvent { time_s, tick: 0, kind }).collect();
+        Performance { path: "t.mid".into(), events, duration_s: 3.0, notes_end_s: 3.0, channel: 10 }
+    }
+
+    #[test]
+    fn the_kick_foot_lifts_before_the_hit_and_is_down_at_it() {
+        let map = NoteMap::builtin("roland-td").unwrap();
+        let p = perf(vec![(1.0, DrumEventKind::NoteOn { note: 36, velocity: 120 })]);
+        let ft = feet(&p, &map, 181, &mut Rng::new(1));
+        let z = |f: usize| ft.feet[f][1].pos[2];
+        let rest = FEET_HOME[1][2];
+        assert!((z(60) - rest).abs() < 1e-6, "down at the hit");
+        let lifted: Vec<usize> = (0..181).filter(|&f| z(f) > rest + 1e-4).collect();
+        assert!(!lifted.is_empty() && lifted.len() <= 5 && lifted.iter().all(|&f| (55..60).contains(&f)), "{lifted:?}");
+    }
+
+    #[test]
+    fn an_open_hi_hat_holds_until_closed_or_twenty_frames() {
+        let map = NoteMap::builtin("roland-td").unwrap();
+        let on = |note| DrumEventKind::NoteOn { note, velocity: 90 };
+        let p = perf(vec![(0.5, on(46)), (0.7, on(42)), (1.5, on(46))]);
+        let ft = feet(&p, &map, 181, &mut Rng::new(1));
+        assert!(ft.openness[30] > 0.5 && ft.openness[41] > 0.5);
+        assert_eq!(ft.openness[42], 0.0, "closed at 0.7 s");
+        assert!(ft.openness[90 + 19] > 0.5 && ft.openness[90 + 20] == 0.0, "released after 20 frames");
+        assert!(ft.feet[30][0].pos[2] > ft.feet[50][0].pos[2], "left foot raised while open");
+    }
+
+    #[test]
+    fn cc4_sets_the_openness_when_present() {
+        let map = NoteMap::builtin("roland-td").unwrap();
+        let p =
+            perf(vec![(0.0, DrumEventKind::HiHatPedal { value: 127 }), (1.0, DrumEventKind::HiHatPedal { value: 0 })]);
+        let ft = feet(&p, &map, 121, &mut Rng::new(1));
+        assert_eq!(ft.openness[30], 0.0);
+        assert_eq!(ft.openness[90], 1.0);
+    }
+}

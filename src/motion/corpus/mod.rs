@@ -1,0 +1,355 @@
+//! The training-corpus teacher (DESIGN.md section 3): real drum MIDI in, the drumming motion a
+//! drummer would recognise out. It is deterministic given a seed, and documented rule by rule:
+//!
+//! 1. Notes ([`hand_notes`]): every mapped note-on whose zone is not `Pedal` (the kick and the
+//!    hi-hat pedal are feet) is a hand note, struck at a point of its piece set by its zone
+//!    ([`strike_point`]).
+//! 2. Sticking ([`sticking`]): which hand plays each note (right-handed player, cross-handed
+//!    hi-hat, alternating fills, no tangles at speed).
+//! 3. Strokes ([`strokes`]): a stick-tip trajectory per hand that meets the strike point exactly
+//!    at the note's 60 fps frame, with a velocity-dependent lift, rebound and minimum-jerk
+//!    travel; the grip follows from the stick's pitch and yaw.
+//! 4. Upper body and face ([`upper`], [`face`]) and feet ([`feet`]).
+//!
+//! [`dataset`] turns the Groove MIDI Dataset into (piano roll, hand values) training pairs.
+//!
+//! Timing convention: the motion is sampled at 60 fps, so a note's contact happens at its
+//! roll frame, `round(time_s * 60) / 60` (within 8.3 ms of the MIDI onset, the roll's own
+//! quantisation): the tip is on the strike point exactly at that frame.
+
+pub mod dataset;
+pub mod face;
+pub mod feet;
+pub mod sticking;
+pub mod strokes;
+pub mod travel;
+pub mod upper;
+
+pub use dataset::{build_dataset, load_examples, run_corpus, save_examples, CorpusSummary, Example};
+
+use crate::kit::{Kit, Piece, PieceKind};
+use crate::midi::roll::{frame_of, piano_roll, PianoRoll};
+use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
+use crate::motion::{Motion, MotionFrame, FPS};
+use std::path::PathBuf;
+
+/// Which hand: index into [`MotionFrame::hands`].
+pub const LEFT: usize = 0;
+pub const RIGHT: usize = 1;
+
+/// What a piece is to a drummer, for the sticking rules.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    HiHat,
+    Ride,
+    /// Crash, splash, china.
+    Crash,
+    Snare,
+    /// Toms and any other drum.
+    Tom,
+}
+
+impl Role {
+    /// Of a kit piece: hi-hat by its closed damping, ride and snare by id, else by kind.
+    pub fn of(piece: &Piece) -> Role {
+        match piece.kind {
+            PieceKind::Plate if piece.closed_damping_factor.is_some() => Role::HiHat,
+            PieceKind::Plate if piece.id.contains("ride") => Role::Ride,
+            PieceKind::Plate => Role::Crash,
+            PieceKind::Membrane if piece.id.contains("snare") => Role::Snare,
+            PieceKind::Membrane => Role::Tom,
+        }
+    }
+
+    /// Drums (not cymbals): the pieces fills are played on.
+    pub fn is_drum(self) -> bool {
+        matches!(self, Role::Snare | Role::Tom)
+    }
+
+    /// How much a drummer keeps this note when three fall at once (higher keeps).
+    pub fn importance(self) -> f32 {
+        match self {
+            Role::Crash => 4.0,
+            Role::Snare | Role::Tom => 3.0,
+            Role::Ride => 2.0,
+            Role::HiHat => 1.0,
+        }
+    }
+}
+
+/// One hand note before sticking: where and how hard it is struck.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HandNote {
+    pub time_s: f64,
+    /// The 60 fps frame of its onset (the roll's).
+    pub frame: usize,
+    pub note: u8,
+    pub velocity: u8,
+    /// Index into `kit.pieces`.
+    pub piece: usize,
+    pub role: Role,
+    pub zone: Zone,
+    /// Strike point and surface normal (kit frame, metres).
+    pub point: [f32; 3],
+    pub normal: [f32; 3],
+}
+
+/// A hand note the teacher plays: its hand, piece and strike point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannedNote {
+    pub time_s: f64,
+    pub frame: usize,
+    /// [`LEFT`] or [`RIGHT`].
+    pub hand: usize,
+    /// Kit piece id.
+    pub piece: String,
+    pub zone: Zone,
+    pub point: [f32; 3],
+    pub normal: [f32; 3],
+    pub velocity: u8,
+}
+
+/// What the teacher makes of one performance.
+#[derive(Debug, Clone)]
+pub struct Teaching {
+    /// The DRUMS 60 fps piano roll (the model's input), `roll.len()` frames.
+    pub roll: PianoRoll,
+    /// The whole-body motion, as many frames as the roll.
+    pub motion: Motion,
+    /// Hand notes played, in time order.
+    pub notes: Vec<PlannedNote>,
+    /// Hand notes left out: a second note on the same piece in the same frame, or a third (or
+    /// more) hand note at once (see [`sticking`]).
+    pub dropped: usize,
+    /// Note-ons the map does not know (not played, not in the roll).
+    pub unmapped: usize,
+    /// The beat period the upper body nods to, seconds.
+    pub beat_s: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CorpusError {
+    #[error("{midi}: note map {map:?} sends note {note} to piece {piece:?}, which kit {kit:?} does not have")]
+    MissingPiece { midi: PathBuf, map: String, note: u8, piece: String, kit: String },
+    #[error("{path}: cannot read: {source}")]
+    Read { path: PathBuf, source: std::io::Error },
+    #[error("{path}: cannot write: {source}")]
+    Write { path: PathBuf, source: std::io::Error },
+    #[error("{path}: {message}")]
+    Format { path: PathBuf, message: String },
+    #[error("{path}: line {line}: {message}")]
+    Csv { path: PathBuf, line: usize, message: String },
+    #[error("{path}: no examples of split {split:?} ({skipped} files failed to parse)")]
+    Empty { path: PathBuf, split: String, skipped: usize },
+}
+
+/// Teach one performance: sticking, strokes, upper body, face and feet, deterministic in `seed`.
+pub fn teach(perf: &Performance, map: &NoteMap, kit: &Kit, seed: u64) -> Result<Teaching, CorpusError> {
+    let roll = piano_roll(perf, map);
+    let frames = roll.len();
+    let (notes, unmapped) = hand_notes(perf, map, kit)?;
+    let plan = sticking::assign(&notes, kit);
+    let mut planned: Vec<PlannedNote> = Vec::with_capacity(notes.len());
+    let mut per_hand: [Vec<&HandNote>; 2] = [Vec::new(), Vec::new()];
+    for (n, hand) in notes.iter().zip(&plan.hands) {
+        if let Some(h) = *hand {
+            per_hand[h].push(n);
+            planned.push(PlannedNote {
+                time_s: n.time_s,
+                frame: n.frame,
+                hand: h,
+                piece: kit.pieces[n.piece].id.clone(),
+                zone: n.zone,
+                point: n.point,
+                normal: n.normal,
+                velocity: n.velocity,
+            });
+        }
+    }
+    let mut rng = Rng::new(seed);
+    let hands: [Vec<_>; 2] =
+        std::array::from_fn(|h| strokes::hand_track(h, &per_hand[h], kit, frames, &mut rng.fork(h as u64 + 1)));
+    let beat = upper::estimate_beat(perf, map, frames);
+    let tips: Vec<[[f32; 3]; 2]> = (0..frames).map(|f| [hands[0][f].stick_tip(), hands[1][f].stick_tip()]).collect();
+    let (chest, head) = upper::upper_body(&tips, &planned, &beat, frames, &mut rng.fork(11));
+    let face = face::face(&planned, &notes, &beat, frames, &mut rng.fork(12));
+    let feet = feet::feet(perf, map, frames, &mut rng.fork(13));
+    let motion_frames = (0..frames)
+        .map(|f| MotionFrame {
+            hands: [hands[0][f], hands[1][f]],
+            chest: chest[f],
+            head: head[f],
+            feet: feet.feet[f],
+            face: face[f].to_vec(),
+            hihat_openness: feet.openness[f],
+        })
+        .collect();
+    Ok(Teaching {
+        roll,
+        motion: Motion { fps: FPS, frames: motion_frames },
+        notes: planned,
+        dropped: plan.dropped,
+        unmapped,
+        beat_s: beat.period_s,
+    })
+}
+
+/// The hand notes of a performance in time order (ties: note number), and the count of
+/// note-ons the map does not know.
+pub fn hand_notes(perf: &Performance, map: &NoteMap, kit: &Kit) -> Result<(Vec<HandNote>, usize), CorpusError> {
+    let mut notes = Vec::new();
+    let mut unmapped = 0;
+    for e in &perf.events {
+        let DrumEventKind::NoteOn { note, velocity } = e.kind else { continue };
+        let Some(entry) = map.entry(note) else {
+            unmapped += 1;
+            continue;
+        };
+        if entry.zone == Zone::Pedal {
+            continue;
+        }
+        let piece = kit.index_of(&entry.piece).ok_or_else(|| CorpusError::MissingPiece {
+            midi: perf.path.clone(),
+            map: map.name.clone(),
+            note,
+            piece: entry.piece.clone(),
+            kit: kit.name.clone(),
+        })?;
+        let p = &kit.pieces[piece];
+        let (point, normal) = strike_point(kit, p, entry.zone);
+        notes.push(HandNote {
+            time_s: e.time_s,
+            frame: frame_of(e.time_s),
+            note,
+            velocity,
+            piece,
+            role: Role::of(p),
+            zone: entry.zone,
+            point,
+            normal,
+        });
+    }
+    notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s).then(a.note.cmp(&b.note)));
+    Ok((notes, unmapped))
+}
+
+/// Where a zone of a piece is struck, and the surface normal there. The point lies in the
+/// piece's plane at the kit's zone radius (a fraction of the piece radius: head about a third,
+/// center 0, rim and cross-stick near the hoop, cymbal bell / bow / edge), on the side facing
+/// the drummer: along the direction toward the stool (x = y = 0) projected into the plane.
+pub fn strike_point(kit: &Kit, piece: &Piece, zone: Zone) -> ([f32; 3], [f32; 3]) {
+    let z = &kit.zones;
+    let fraction = match zone {
+        Zone::Center => z.center,
+        Zone::Head => z.head,
+        Zone::Rim => z.rim,
+        Zone::CrossStick => z.cross_stick,
+        Zone::Bow => z.bow,
+        Zone::Edge => z.edge,
+        Zone::Bell => z.bell,
+        Zone::Pedal => z.pedal,
+    };
+    let n = piece.normal;
+    let c = piece.position_m;
+    let toward = [-c[0], -c[1], 0.0];
+    let inplane = |v: [f32; 3]| {
+        let d = dot(v, n);
+        [v[0] - d * n[0], v[1] - d * n[1], v[2] - d * n[2]]
+    };
+    let mut dir = inplane(toward);
+    if norm(dir) < 1e-4 {
+        dir = inplane([0.0, -1.0, 0.0]);
+    }
+    let dir = normalize(dir);
+    let r = piece.radius_m * fraction;
+    ([c[0] + dir[0] * r, c[1] + dir[1] * r, c[2] + dir[2] * r], n)
+}
+
+pub(crate) fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+pub(crate) fn norm(a: [f32; 3]) -> f32 {
+    dot(a, a).sqrt()
+}
+
+pub(crate) fn normalize(a: [f32; 3]) -> [f32; 3] {
+    let n = norm(a);
+    if n > 1e-9 {
+        a.map(|x| x / n)
+    } else {
+        [0.0, 0.0, 1.0]
+    }
+}
+
+/// The teacher's own small deterministic generator (SplitMix64): no dependency, the same
+/// numbers on every platform.
+#[derive(Debug, Clone)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Rng {
+        Rng(seed ^ 0x5DEE_CE66_D1CE_4E5B)
+    }
+
+    /// An independent stream for one part (a hand, the face), so that parts do not shift each
+    /// other's numbers when one of them changes.
+    pub fn fork(&mut self, salt: u64) -> Rng {
+        Rng(self.next_u64() ^ salt.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn unit(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// Uniform in [-1, 1).
+    pub fn sym(&mut self) -> f32 {
+        2.0 * self.unit() - 1.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strike_points_lie_in_the_piece_plane_at_the_zone_radius() {
+        let kit = Kit::builtin_default();
+        for p in &kit.pieces {
+            for (zone, frac) in [(Zone::Head, kit.zones.head), (Zone::Rim, kit.zones.rim), (Zone::Bow, kit.zones.bow)] {
+                let (pt, n) = strike_point(&kit, p, zone);
+                let d = [pt[0] - p.position_m[0], pt[1] - p.position_m[1], pt[2] - p.position_m[2]];
+                assert!(dot(d, n).abs() < 1e-5, "{} {zone:?} off the plane", p.id);
+                assert!((norm(d) - p.radius_m * frac).abs() < 1e-5);
+            }
+        }
+        // The snare's head point is on the drummer's side of its centre.
+        let snare = kit.piece("snare").unwrap();
+        let (pt, _) = strike_point(&kit, snare, Zone::Head);
+        assert!(pt[1] < snare.position_m[1]);
+    }
+
+    #[test]
+    fn rng_is_deterministic_and_forks_differ() {
+        let mut a = Rng::new(7);
+        let mut b = Rng::new(7);
+        assert_eq!(a.next_u64(), b.next_u64());
+        let mut fa = a.fork(1);
+        let mut fb = b.fork(2);
+        assert_ne!(fa.next_u64(), fb.next_u64());
+        let u: Vec<f32> = (0..1000).map(|_| a.unit()).collect();
+        assert!(u.iter().all(|x| (0.0..1.0).contains(x)));
+        let mean = u.iter().sum::<f32>() / 1000.0;
+        assert!((mean - 0.5).abs() < 0.05);
+    }
+}
