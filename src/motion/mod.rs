@@ -5,6 +5,7 @@
 pub mod body_ik;
 pub mod corpus;
 pub mod export;
+pub mod feet;
 pub mod mocap;
 pub mod plan;
 pub mod rig;

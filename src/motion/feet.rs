@@ -8,7 +8,7 @@
 //!   until a closed hi-hat or pedal note, or at most `OPEN_HOLD_FRAMES`. A hi-hat pedal note
 //!   ("chick") is a press like the kick's.
 
-use super::Rng;
+use crate::motion::corpus::Rng;
 use crate::midi::roll::frame_of;
 use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
 use crate::motion::Pose;
