@@ -94,6 +94,18 @@ enum Command {
         #[arg(long, default_value = "config/limits.json")]
         out: PathBuf,
     },
+    /// Build the hand model's training material: the corpus teacher's motion for every
+    /// performance of a Groove MIDI split, saved as one dataset file.
+    Corpus {
+        /// The Groove MIDI Dataset folder (with info.csv).
+        #[arg(long, default_value = "../shared/data/gmd")]
+        gmd: PathBuf,
+        #[arg(long, value_parser = ["train", "validation", "test"], default_value = "train")]
+        split: String,
+        /// Dataset file to write (default: data/corpus-SPLIT.bin).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -139,6 +151,7 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::live::LiveInputError>()
             || e.is::<drumsim::body::sim::DrummerError>()
             || e.is::<drumsim::body::report::TrajectoryError>()
+            || e.is::<drumsim::motion::corpus::CorpusError>()
     });
     if bad_input {
         2
@@ -208,6 +221,28 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Limits { from, kit, out } => {
             drumsim::body::report::run_limits(from.as_deref(), &kit, &out)?;
             eprintln!("wrote {}", out.display());
+            Ok(())
+        }
+        Command::Corpus { gmd, split, out } => {
+            let out = out.unwrap_or_else(|| PathBuf::from(format!("data/corpus-{split}.bin")));
+            if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir)?;
+            }
+            let s = drumsim::motion::corpus::run_corpus(&gmd, &out, &split)?;
+            for (path, why) in &s.skipped {
+                eprintln!("skipped {}: {why}", path.display());
+            }
+            println!(
+                "{}: {} performances, {} frames ({:.2} h at 60 fps), {} notes dropped, {} skipped, {:.1} s, {:.1} MB",
+                out.display(),
+                s.examples,
+                s.frames,
+                s.frames as f64 / 60.0 / 3600.0,
+                s.dropped_notes,
+                s.skipped.len(),
+                s.seconds,
+                s.bytes as f64 / 1e6
+            );
             Ok(())
         }
     }
