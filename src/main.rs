@@ -105,6 +105,10 @@ enum Command {
         /// Dataset file to write (default: data/corpus-SPLIT.bin).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Instead of the dataset, build the upper-body retrieval library from the split
+        /// and write it here (the shipped one: assets/upper-library.bin, from train).
+        #[arg(long)]
+        library: Option<PathBuf>,
     },
 }
 
@@ -152,6 +156,7 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::body::sim::DrummerError>()
             || e.is::<drumsim::body::report::TrajectoryError>()
             || e.is::<drumsim::motion::corpus::CorpusError>()
+            || e.is::<drumsim::motion::upper::LibraryError>()
     });
     if bad_input {
         2
@@ -223,7 +228,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             eprintln!("wrote {}", out.display());
             Ok(())
         }
-        Command::Corpus { gmd, split, out } => {
+        Command::Corpus { gmd, split, out: _, library: Some(path) } => {
+            let (lib, s) = drumsim::motion::upper::build::build_library(&gmd, &split, 15, 600)?;
+            lib.save(&path)?;
+            for (id, why) in &s.skipped {
+                eprintln!("skipped {id}: {why}");
+            }
+            println!("{}: {} clips, {} frames from the {split} split", path.display(), s.clips, s.frames);
+            Ok(())
+        }
+        Command::Corpus { gmd, split, out, library: None } => {
             let out = out.unwrap_or_else(|| PathBuf::from(format!("data/corpus-{split}.bin")));
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;

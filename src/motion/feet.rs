@@ -8,9 +8,9 @@
 //!   until a closed hi-hat or pedal note, or at most `OPEN_HOLD_FRAMES`. A hi-hat pedal note
 //!   ("chick") is a press like the kick's.
 
-use crate::motion::corpus::Rng;
 use crate::midi::roll::frame_of;
 use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
+use crate::motion::corpus::Rng;
 use crate::motion::Pose;
 
 pub const OPEN_HOLD_FRAMES: usize = 20;

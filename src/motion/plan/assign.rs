@@ -5,8 +5,11 @@
 //! the assigned hand's predicted tip to its strike point; a hand asked to play two notes
 //! faster than it can (`min_gap_s` on one piece, plus travel at `travel_mps` between
 //! pieces) pays `infeasible` per violation. The cheapest path wins; notes on it that still
-//! violate a hand's limits (three notes at once for two hands) are dropped and counted,
-//! never played impossibly.
+//! strike faster than a hand can (three notes at once for two hands) are dropped and
+//! counted, never played impossibly. A travel faster than `travel_mps` is allowed when no
+//! assignment avoids it (a drummer's hand can move faster than the usual pace). Two notes
+//! on one piece within `merge_s` (an e-kit's bow and bell, a flam's grace note on one pad)
+//! are one stroke: the later is `merged` into the earlier and shares its hand.
 
 use super::HandNote;
 
@@ -23,6 +26,8 @@ pub struct AssignSettings {
     pub infeasible: f64,
     /// How many notes back the other hand's last note is remembered.
     pub memory: usize,
+    /// Notes on one piece this close are one stroke, seconds.
+    pub merge_s: f64,
 }
 
 impl Default for AssignSettings {
@@ -34,6 +39,7 @@ impl Default for AssignSettings {
             per_metre: 10.0,
             infeasible: 1000.0,
             memory: 48,
+            merge_s: 0.012,
         }
     }
 }
@@ -42,6 +48,8 @@ impl Default for AssignSettings {
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Assignment {
     pub hands: Vec<Option<usize>>,
+    /// True for a note played by the stroke of an earlier note on the same piece.
+    pub merged: Vec<bool>,
     pub dropped: usize,
 }
 
@@ -68,9 +76,40 @@ type Entry = ((usize, usize), f64, usize);
 /// Assign `notes` (sorted by time) to hands. `predicted(hand, time_s)` is the hand model's
 /// stick tip.
 pub fn assign_hands(notes: &[HandNote], predicted: &dyn Fn(usize, f64) -> [f32; 3], s: &AssignSettings) -> Assignment {
+    // One stroke per piece within `merge_s`: the DP sees only the leading notes.
+    let mut leader: Vec<usize> = (0..notes.len()).collect();
+    for i in 0..notes.len() {
+        let earlier = (0..i).rev().take_while(|&j| notes[i].time_s - notes[j].time_s <= s.merge_s);
+        if let Some(j) = earlier.filter(|&j| leader[j] == j).find(|&j| notes[j].piece == notes[i].piece) {
+            leader[i] = j;
+        }
+    }
+    let lead: Vec<usize> = (0..notes.len()).filter(|&i| leader[i] == i).collect();
+    let strokes: Vec<HandNote> = lead.iter().map(|&i| notes[i]).collect();
+    let (hands, dropped) = assign_strokes(&strokes, predicted, s);
+    let mut out = Assignment { hands: vec![None; notes.len()], merged: vec![false; notes.len()], dropped };
+    for (k, &i) in lead.iter().enumerate() {
+        out.hands[i] = hands[k];
+    }
+    for i in 0..notes.len() {
+        if leader[i] != i {
+            out.hands[i] = out.hands[leader[i]];
+            out.merged[i] = true;
+            out.dropped += out.hands[i].is_none() as usize;
+        }
+    }
+    out
+}
+
+/// The DP over strokes (notes sorted by time, one per stroke).
+fn assign_strokes(
+    notes: &[HandNote],
+    predicted: &dyn Fn(usize, f64) -> [f32; 3],
+    s: &AssignSettings,
+) -> (Vec<Option<usize>>, usize) {
     let n = notes.len();
     if n == 0 {
-        return Assignment::default();
+        return (Vec::new(), 0);
     }
     // Per step, the live states: (hand of note i, other hand's last note or FREE), their
     // cost and their parent state's index in the previous step.
@@ -104,13 +143,14 @@ pub fn assign_hands(notes: &[HandNote], predicted: &dyn Fn(usize, f64) -> [f32; 
         hands[i] = Some(h);
         at = parent;
     }
-    // Drop what a hand still cannot play: keep a hand's earlier note, drop the later.
+    // Drop what a hand still cannot strike: two strokes closer than `min_gap_s` (keep the
+    // earlier). Travel faster than the usual pace is left to the hand.
     let mut last_of: [Option<usize>; 2] = [None, None];
     let mut dropped = 0;
     for i in 0..n {
         let Some(h) = hands[i] else { continue };
         if let Some(p) = last_of[h] {
-            if !feasible(&notes[p], &notes[i], s) {
+            if notes[i].time_s - notes[p].time_s + 1e-9 < s.min_gap_s {
                 hands[i] = None;
                 dropped += 1;
                 continue;
@@ -118,7 +158,7 @@ pub fn assign_hands(notes: &[HandNote], predicted: &dyn Fn(usize, f64) -> [f32; 
         }
         last_of[h] = Some(i);
     }
-    Assignment { hands, dropped }
+    (hands, dropped)
 }
 
 #[cfg(test)]
@@ -170,6 +210,17 @@ mod tests {
         let pred = |_h: usize, _t: f64| [0.0, 0.4, 0.75];
         let a = assign_hands(&notes, &pred, &AssignSettings::default());
         assert_ne!(a.hands[0], a.hands[1]);
+    }
+
+    #[test]
+    fn two_notes_on_one_piece_at_once_are_one_stroke() {
+        // Ride bow and bell 3 ms apart, with a snare note on the other hand.
+        let notes = vec![note(0.0, 5, 0.5), note(0.003, 5, 0.5), note(0.003, 0, -0.1)];
+        let pred = |h: usize, _t: f64| if h == 1 { [0.5, 0.4, 0.75] } else { [-0.1, 0.4, 0.75] };
+        let a = assign_hands(&notes, &pred, &AssignSettings::default());
+        assert_eq!(a.dropped, 0);
+        assert_eq!(a.merged, vec![false, true, false]);
+        assert_eq!(a.hands, vec![Some(1), Some(1), Some(0)]);
     }
 
     #[test]

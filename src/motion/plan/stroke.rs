@@ -86,8 +86,8 @@ pub fn plan_hands(
     settings: StrokeSettings,
 ) -> PlannedHands {
     let mut per_hand: [Vec<(HandNote, [f32; 3])>; 2] = [Vec::new(), Vec::new()];
-    for (n, h) in notes.iter().zip(&assignment.hands) {
-        if let Some(h) = *h {
+    for ((n, h), merged) in notes.iter().zip(&assignment.hands).zip(&assignment.merged) {
+        if let (Some(h), false) = (*h, *merged) {
             let tip = predicted_pose(predicted, fps, h, n.time_s).stick_tip();
             per_hand[h].push((*n, sub(n.point, tip)));
         }

@@ -15,6 +15,7 @@
 //! The library holds only training material (`library.rs`): windows of the teacher's
 //! motion of the Groove MIDI train split, or of loaded mocap.
 
+pub mod build;
 pub mod library;
 pub mod matching;
 

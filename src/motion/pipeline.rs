@@ -1,0 +1,108 @@
+//! The motion stage: a performance and its predicted hands -> whole-body motion on the kit.
+//!
+//! roll (60 fps) -> hand poses (the hand model, or the teacher when no weights are given)
+//! -> strike planning on the configured kit (hands assigned, tips corrected onto the strike
+//! points) -> upper body and face by retrieval from the shipped library -> feet by pedal
+//! enforcement -> `Motion`, one frame per roll frame.
+
+use super::corpus::{self, CorpusError, Rng};
+use super::plan::{self, AssignSettings, HandNote, StrokeSettings};
+use super::track::{Motion, MotionFrame, Pose, FPS};
+use super::upper::{self, Library, LibraryError, MatchReport, MatchSettings};
+use crate::kit::Kit;
+use crate::midi::roll::piano_roll;
+use crate::midi::{NoteMap, Performance};
+
+#[derive(Debug, thiserror::Error)]
+pub enum MotionError {
+    #[error(transparent)]
+    Corpus(#[from] CorpusError),
+    #[error(transparent)]
+    Library(#[from] LibraryError),
+    #[error("{0}: the performance has no frames (an empty song)")]
+    Empty(String),
+    #[error("the hand model gave {got} frames for a roll of {want}")]
+    HandFrames { got: usize, want: usize },
+}
+
+/// What the motion stage did, for the render summary and tests.
+#[derive(Debug, Clone, Default)]
+pub struct MotionReport {
+    pub frames: usize,
+    pub hand_notes: usize,
+    /// Hand notes no hand could play in time (three at once, impossible speed): not played.
+    pub dropped: usize,
+    /// The hand of every hand note (in `corpus::hand_notes` order), `None` when dropped.
+    pub hands: Vec<Option<usize>>,
+    pub retrieval: MatchReport,
+}
+
+/// The teacher's hands for `perf`: the documented fallback when no trained weights exist.
+pub fn teacher_hands(perf: &Performance, map: &NoteMap, kit: &Kit) -> Result<Vec<[Pose; 2]>, CorpusError> {
+    let t = corpus::teach(perf, map, kit, 0)?;
+    Ok(t.motion.frames.iter().map(|f| f.hands).collect())
+}
+
+/// Whole-body motion for `perf` on `kit`, from `predicted` hand poses (one per roll frame).
+pub fn perform(
+    perf: &Performance,
+    map: &NoteMap,
+    kit: &Kit,
+    predicted: &[[Pose; 2]],
+    library: &Library,
+) -> Result<(Motion, MotionReport), MotionError> {
+    let roll = piano_roll(perf, map);
+    let frames = roll.len();
+    if frames == 0 || perf.events.is_empty() {
+        return Err(MotionError::Empty(perf.path.display().to_string()));
+    }
+    if predicted.len() != frames {
+        return Err(MotionError::HandFrames { got: predicted.len(), want: frames });
+    }
+    // Hands: the notes on this kit, assigned and planned over the prediction.
+    let (notes, _unmapped) = corpus::hand_notes(perf, map, kit)?;
+    let notes: Vec<HandNote> = notes
+        .iter()
+        .map(|n| HandNote {
+            time_s: n.time_s,
+            piece: n.piece,
+            point: n.point,
+            normal: n.normal,
+            velocity: n.velocity,
+            speed_mps: kit.strike.speed_for_velocity(n.velocity),
+        })
+        .collect();
+    let tip = |h: usize, t: f64| {
+        let f = ((t * FPS).round().max(0.0) as usize).min(frames - 1);
+        predicted[f][h].stick_tip()
+    };
+    let assignment = plan::assign_hands(&notes, &tip, &AssignSettings::default());
+    let planned = plan::plan_hands(predicted, FPS, &notes, &assignment, StrokeSettings::default());
+    let hands = planned.sample(FPS, frames);
+    // Upper body and face.
+    let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
+    let (upper, retrieval) = upper::retrieve(library, &masks, &MatchSettings::default())?;
+    // Feet and hi-hat.
+    let feet = super::feet::feet(perf, map, frames, &mut Rng::new(0));
+    let motion = Motion {
+        fps: FPS,
+        frames: (0..frames)
+            .map(|f| MotionFrame {
+                hands: hands[f],
+                chest: upper[f].chest,
+                head: upper[f].head,
+                feet: feet.feet[f],
+                face: upper[f].face.to_vec(),
+                hihat_openness: feet.openness[f],
+            })
+            .collect(),
+    };
+    let report = MotionReport {
+        frames,
+        hand_notes: notes.len(),
+        dropped: assignment.dropped,
+        hands: assignment.hands.clone(),
+        retrieval,
+    };
+    Ok((motion, report))
+}
