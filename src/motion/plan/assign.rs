@@ -91,9 +91,9 @@ pub fn assign_hands(notes: &[HandNote], predicted: &dyn Fn(usize, f64) -> [f32; 
     for (k, &i) in lead.iter().enumerate() {
         out.hands[i] = hands[k];
     }
-    for i in 0..notes.len() {
-        if leader[i] != i {
-            out.hands[i] = out.hands[leader[i]];
+    for (i, &l) in leader.iter().enumerate() {
+        if l != i {
+            out.hands[i] = out.hands[l];
             out.merged[i] = true;
             out.dropped += out.hands[i].is_none() as usize;
         }
