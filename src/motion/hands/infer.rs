@@ -13,9 +13,10 @@
 //!   about 1 ulp), applied to whole gate vectors.
 //!
 //! The kernels are plain loops over fixed-size arrays that LLVM vectorises. They run inside
-//! `pulp::Arch::dispatch`, which compiles them a second time with AVX2 + FMA and picks that
-//! version at run time where the CPU has it (safe code; the crate builds for the default
-//! x86-64 target). Fused multiply-add is used only where the CPU has it.
+//! `pulp::Arch::dispatch`, which with pulp's `x86-v3` feature compiles them a second time
+//! for AVX2 and picks that version at run time (safe code; the crate builds for the default
+//! x86-64 target). That feature is off for now (it rebuilds burn's CPU backend), so the
+//! default build runs SSE2 code; `-C target-cpu=native` gets AVX2 + FMA.
 
 use std::path::Path;
 
@@ -176,8 +177,7 @@ impl HandModel {
 
     /// [`Self::predict`] for a [`PianoRoll`].
     pub fn predict_roll(&self, roll: &PianoRoll) -> Vec<[f32; HAND_VALUES]> {
-        let x: Vec<[f32; ROLL_COLUMNS]> =
-            roll.frames.iter().map(|f| f.map(|on| if on { 1.0 } else { 0.0 })).collect();
+        let x: Vec<[f32; ROLL_COLUMNS]> = roll.frames.iter().map(|f| f.map(|on| if on { 1.0 } else { 0.0 })).collect();
         self.predict(&x)
     }
 
@@ -195,15 +195,10 @@ impl HandModel {
     }
 }
 
+/// Fused multiply-add only where the build targets it (`-C target-cpu=native` on a CPU with
+/// FMA): otherwise `f32::mul_add` would be a libm call, 50x slower than `a * b + c`.
 fn fma_available() -> bool {
-    #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
-    {
-        std::arch::is_x86_feature_detected!("fma") && std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(any(target_arch = "x86", target_arch = "x86_64")))]
-    {
-        cfg!(target_arch = "aarch64")
-    }
+    cfg!(target_feature = "fma")
 }
 
 /// `a * b + c`, fused where the CPU has FMA (a libm call otherwise, hence the switch).

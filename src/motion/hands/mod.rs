@@ -71,7 +71,8 @@ impl Normalisation {
             return Self::identity();
         }
         let mean = sum.map(|s| s / n as f64);
-        let std = std::array::from_fn(|c| ((sq[c] / n as f64 - mean[c] * mean[c]).max(0.0).sqrt() as f32).max(Self::MIN_STD));
+        let std =
+            std::array::from_fn(|c| ((sq[c] / n as f64 - mean[c] * mean[c]).max(0.0).sqrt() as f32).max(Self::MIN_STD));
         Self { mean: mean.map(|m| m as f32), std }
     }
 

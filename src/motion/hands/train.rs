@@ -264,10 +264,8 @@ fn check_examples(set: &str, examples: &[Example]) -> Result<(), HandsError> {
 }
 
 fn write_json(path: &Path, report: &TrainReport) -> Result<(), HandsError> {
-    let text = serde_json::to_string_pretty(report).map_err(|e| HandsError::Checkpoint {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
-    })?;
+    let text = serde_json::to_string_pretty(report)
+        .map_err(|e| HandsError::Checkpoint { path: path.to_path_buf(), reason: e.to_string() })?;
     let tmp = path.with_extension("json.tmp");
     std::fs::write(&tmp, text)
         .and_then(|_| std::fs::rename(&tmp, path))
@@ -275,7 +273,10 @@ fn write_json(path: &Path, report: &TrainReport) -> Result<(), HandsError> {
 }
 
 fn save_model(model: &HandNet, path: &Path) -> Result<(), HandsError> {
-    model.valid().save_file(path).map_err(|e| HandsError::Checkpoint { path: path.to_path_buf(), reason: e.to_string() })
+    model
+        .valid()
+        .save_file(path)
+        .map_err(|e| HandsError::Checkpoint { path: path.to_path_buf(), reason: e.to_string() })
 }
 
 /// File names inside a checkpoint directory.
@@ -328,7 +329,10 @@ pub fn train(
         let text = std::fs::read_to_string(&paths.last_json).map_err(|e| cerr(&paths.last_json, e.to_string()))?;
         let mut st: TrainReport = serde_json::from_str(&text).map_err(|e| cerr(&paths.last_json, e.to_string()))?;
         if st.config.hidden != cfg.hidden {
-            return Err(cerr(&paths.last_json, format!("hidden {} differs from the requested {}", st.config.hidden, cfg.hidden)));
+            return Err(cerr(
+                &paths.last_json,
+                format!("hidden {} differs from the requested {}", st.config.hidden, cfg.hidden),
+            ));
         }
         model = model.try_load_file(&paths.last).map_err(|e| cerr(&paths.last, e.to_string()))?.train();
         optim = optim.load(&paths.last_optim).map_err(|e| cerr(&paths.last_optim, e.to_string()))?;
@@ -361,8 +365,10 @@ pub fn train(
         let batches: Vec<&[Crop]> = crops.chunks(cfg.batch).collect();
         let bar = if progress {
             indicatif::ProgressBar::new(batches.len() as u64).with_style(
-                indicatif::ProgressStyle::with_template("epoch {prefix} [{bar:30}] {pos}/{len} batches, loss {msg} ({eta})")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+                indicatif::ProgressStyle::with_template(
+                    "epoch {prefix} [{bar:30}] {pos}/{len} batches, loss {msg} ({eta})",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
             )
         } else {
             indicatif::ProgressBar::hidden()
@@ -391,7 +397,9 @@ pub fn train(
             // The partial epoch's updates are kept in the weights; the epoch itself is
             // redone (with the same crops) on resume.
             save_model(&model, &paths.last)?;
-            optim.save(&paths.last_optim).map_err(|e| HandsError::Checkpoint { path: paths.last_optim.clone(), reason: e.to_string() })?;
+            optim
+                .save(&paths.last_optim)
+                .map_err(|e| HandsError::Checkpoint { path: paths.last_optim.clone(), reason: e.to_string() })?;
             state.stopped_by_budget = true;
             write_json(&paths.last_json, &state)?;
             return Ok(state);
@@ -410,7 +418,9 @@ pub fn train(
             write_json(&paths.best_json, &state)?;
         }
         save_model(&model, &paths.last)?;
-        optim.save(&paths.last_optim).map_err(|e| HandsError::Checkpoint { path: paths.last_optim.clone(), reason: e.to_string() })?;
+        optim
+            .save(&paths.last_optim)
+            .map_err(|e| HandsError::Checkpoint { path: paths.last_optim.clone(), reason: e.to_string() })?;
         write_json(&paths.last_json, &state)?;
         let report = EpochReport { epoch, train_loss, val_loss, best, seconds: t0.elapsed().as_secs_f64() };
         if progress {

@@ -124,7 +124,8 @@ impl HandWeights {
             let d_in = if l == 0 { ROLL_COLUMNS } else { 2 * hidden };
             let dir = |d: usize| -> Result<DirWeights, HandsError> {
                 let g4 = 4 * hidden;
-                let mut w = DirWeights { w_ih: vec![0.0; d_in * g4], w_hh: vec![0.0; hidden * g4], bias: vec![0.0; g4] };
+                let mut w =
+                    DirWeights { w_ih: vec![0.0; d_in * g4], w_hh: vec![0.0; hidden * g4], bias: vec![0.0; g4] };
                 for (g, gate) in GATES.iter().enumerate() {
                     let p = format!("{}.{}.{gate}", LAYERS[l], DIRECTIONS[d]);
                     let wi = t.get(&format!("{p}.input_transform.weight"), &[d_in, hidden])?;
