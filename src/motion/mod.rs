@@ -6,6 +6,7 @@ pub mod body_ik;
 pub mod corpus;
 pub mod export;
 pub mod feet;
+pub mod hands;
 pub mod mocap;
 pub mod pipeline;
 pub mod plan;

@@ -1,0 +1,206 @@
+//! The hand model: our forward pass against burn's, checkpoint loading errors, and a smoke
+//! training run on synthetic data whose loss must fall.
+
+use std::path::{Path, PathBuf};
+
+use burn::module::Module;
+use burn::nn::{BiLstmConfig, DropoutConfig, LinearConfig};
+use burn::tensor::{Device, Tensor, TensorData};
+use drumsim::motion::hands::model::HandNet;
+use drumsim::motion::hands::weights::HandWeights;
+use drumsim::motion::hands::{train, Example, HandModel, HandsError, Normalisation, TrainConfig, ROLL_COLUMNS};
+use drumsim::motion::HAND_VALUES;
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("drumsim-hands-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A deterministic pseudo-random stream in [0, 1).
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+fn random_roll(frames: usize, density: f32, seed: u64) -> Vec<[f32; ROLL_COLUMNS]> {
+    let mut r = Lcg(seed);
+    (0..frames).map(|_| std::array::from_fn(|_| if r.next() < density { 1.0 } else { 0.0 })).collect()
+}
+
+fn burn_forward(net: &HandNet, roll: &[[f32; ROLL_COLUMNS]]) -> Vec<[f32; HAND_VALUES]> {
+    let device = Device::flex();
+    let x: Vec<f32> = roll.iter().flatten().copied().collect();
+    let x = Tensor::<3>::from_data(TensorData::new(x, [1, roll.len(), ROLL_COLUMNS]), &device);
+    let y: Vec<f32> = net.forward(x).into_data().try_into_vec::<f32>().unwrap();
+    y.chunks_exact(HAND_VALUES).map(|c| std::array::from_fn(|i| c[i])).collect()
+}
+
+/// A randomly initialised network saved to `dir/net.bpk`, and loaded back into our layout.
+fn saved_random_net(dir: &Path, hidden: usize, seed: u64) -> (HandNet, HandModel) {
+    let device = Device::flex();
+    device.seed(seed);
+    let net = HandNet::new(hidden, 0.1, &device);
+    let path = dir.join("net.bpk");
+    net.clone().save_file(&path).unwrap();
+    let weights = HandWeights::load(&path).unwrap();
+    assert_eq!(weights.hidden, hidden);
+    (net, HandModel::new(&weights, Normalisation::identity()))
+}
+
+#[test]
+fn our_forward_equals_burns_within_1e4() {
+    let dir = scratch("equal");
+    for (hidden, seed, lengths) in [(12, 1, vec![1, 2, 7, 61]), (128, 2, vec![1, 5, 333])] {
+        let (net, ours) = saved_random_net(&dir, hidden, seed);
+        for (i, &len) in lengths.iter().enumerate() {
+            let roll = random_roll(len, 0.15, seed * 100 + i as u64);
+            let expected = burn_forward(&net, &roll);
+            let got = ours.forward_normalised(&roll);
+            assert_eq!(got.len(), len);
+            let mut worst = 0.0f32;
+            for (a, b) in got.iter().zip(&expected) {
+                for c in 0..HAND_VALUES {
+                    worst = worst.max((a[c] - b[c]).abs());
+                }
+            }
+            let scale = expected.iter().flatten().map(|v| v.abs()).fold(0.0f32, f32::max);
+            println!("hidden {hidden}, {len} frames: max |ours - burn| = {worst:.2e} (outputs up to {scale:.3})");
+            assert!(scale > 1e-3, "outputs too small to compare");
+            assert!(worst <= 1e-4, "hidden {hidden}, {len} frames: max difference {worst}");
+        }
+        assert!(ours.forward_normalised(&[]).is_empty(), "0 frames give an empty output");
+    }
+}
+
+#[test]
+fn predict_denormalises() {
+    let dir = scratch("denorm");
+    let (_, plain) = saved_random_net(&dir, 8, 3);
+    let weights = HandWeights::load(&dir.join("net.bpk")).unwrap();
+    let norm = Normalisation { mean: std::array::from_fn(|c| c as f32), std: [2.0; HAND_VALUES] };
+    let scaled = HandModel::new(&weights, norm.clone());
+    let roll = random_roll(20, 0.2, 9);
+    for (a, b) in plain.forward_normalised(&roll).iter().zip(scaled.predict(&roll)) {
+        for c in 0..HAND_VALUES {
+            assert!((a[c] * 2.0 + c as f32 - b[c]).abs() < 1e-5);
+        }
+    }
+}
+
+#[test]
+fn load_errors_name_the_file_and_never_panic() {
+    let dir = scratch("errors");
+    let missing = dir.join("nope.bpk");
+    let e = HandWeights::load(&missing).unwrap_err();
+    assert!(matches!(e, HandsError::Read { .. }) && e.to_string().contains("nope.bpk"), "{e}");
+
+    let corrupt = dir.join("corrupt.bpk");
+    std::fs::write(&corrupt, b"this is not a burnpack file at all, just some bytes").unwrap();
+    let e = HandModel::load(&corrupt).unwrap_err();
+    assert!(e.to_string().contains("corrupt.bpk"), "{e}");
+
+    // A truncated real file.
+    let (net, _) = saved_random_net(&dir, 8, 4);
+    let bytes = std::fs::read(dir.join("net.bpk")).unwrap();
+    let truncated = dir.join("truncated.bpk");
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+    let e = HandWeights::load(&truncated).unwrap_err();
+    assert!(e.to_string().contains("truncated.bpk"), "{e}");
+
+    // Layer 2 narrower than layer 1: a shape error naming the tensor.
+    let device = Device::flex();
+    let odd = HandNet {
+        lstm1: BiLstmConfig::new(ROLL_COLUMNS, 8, true).init(&device),
+        dropout: DropoutConfig::new(0.1).init(),
+        lstm2: BiLstmConfig::new(16, 6, true).init(&device),
+        head: LinearConfig::new(12, HAND_VALUES).init(&device),
+    };
+    let odd_path = dir.join("odd.bpk");
+    odd.save_file(&odd_path).unwrap();
+    let e = HandWeights::load(&odd_path).unwrap_err();
+    assert!(matches!(e, HandsError::Shape { .. }) && e.to_string().contains("odd.bpk"), "{e}");
+    assert!(e.to_string().contains("lstm2."), "{e}");
+
+    // Weights fine but no normalisation sidecar.
+    net.save_file(dir.join("alone.bpk")).unwrap();
+    let e = HandModel::load(&dir.join("alone.bpk")).unwrap_err();
+    assert!(e.to_string().contains("alone.json"), "{e}");
+}
+
+/// Synthetic teacher: each hand rests, jumps to a per-note place at each onset of one of
+/// its notes (even columns left, odd right) and decays back; the quaternion tilts with the
+/// height. A deterministic function of the roll that needs memory of past onsets.
+fn synthetic_example(id: usize, frames: usize) -> Example {
+    let roll = random_roll(frames, 0.02, 1000 + id as u64);
+    let rest = [[-0.2f32, 0.3, 0.8], [0.2, 0.3, 0.8]];
+    let place = |n: usize| [(n as f32 - 7.5) * 0.05, 0.4 + (n % 3) as f32 * 0.1, 0.7 + (n % 4) as f32 * 0.05];
+    let mut pos = rest;
+    let mut hands = Vec::with_capacity(frames);
+    for x in &roll {
+        for (side, p) in pos.iter_mut().enumerate() {
+            for i in 0..3 {
+                p[i] = rest[side][i] + (p[i] - rest[side][i]) * 0.9;
+            }
+            if let Some(n) = (0..ROLL_COLUMNS).filter(|n| n % 2 == side).find(|&n| x[n] > 0.0) {
+                *p = place(n);
+            }
+        }
+        let mut v = [0.0f32; HAND_VALUES];
+        for side in 0..2 {
+            let a = (pos[side][2] - 0.8) * 2.0;
+            v[side * 7..side * 7 + 3].copy_from_slice(&pos[side]);
+            v[side * 7 + 3..side * 7 + 7].copy_from_slice(&[a.cos(), a.sin(), 0.0, 0.0]);
+        }
+        hands.push(v);
+    }
+    Example { id: format!("synthetic-{id}"), roll, hands }
+}
+
+#[test]
+fn smoke_training_lowers_validation_loss_and_resumes() {
+    let dir = scratch("train");
+    let train_set: Vec<Example> = (0..24).map(|i| synthetic_example(i, 150)).collect();
+    let val_set: Vec<Example> = (100..104).map(|i| synthetic_example(i, 150)).collect();
+    let cfg = TrainConfig { epochs: 25, window: 60, batch: 8, hidden: 16, lr: 1e-2, ..TrainConfig::default() };
+    let mut seen = Vec::new();
+    let first = train(&train_set, &val_set, cfg.clone(), &dir, false, |e| seen.push(e.clone())).unwrap();
+    assert_eq!(first.epoch, 25);
+    assert_eq!(seen.len(), 25);
+    println!("initial val {:.4}, per epoch {:?}", first.initial_val_loss, first.val_loss_history);
+    assert!(
+        first.best_val_loss < 0.7 * first.initial_val_loss,
+        "validation loss {} did not fall enough from {}",
+        first.best_val_loss,
+        first.initial_val_loss
+    );
+
+    // Resume to 28 epochs: the history continues rather than restarting.
+    let resumed = train(&train_set, &val_set, TrainConfig { epochs: 28, ..cfg.clone() }, &dir, false, |_| {}).unwrap();
+    assert_eq!(resumed.epoch, 28);
+    assert_eq!(resumed.val_loss_history.len(), 28);
+    assert_eq!(resumed.val_loss_history[..25], first.val_loss_history[..]);
+    assert!(resumed.best_val_loss <= first.best_val_loss);
+
+    // A spent budget stops before any epoch and leaves a resumable state.
+    let stopped =
+        train(&train_set, &val_set, TrainConfig { epochs: 40, max_minutes: Some(0.0), ..cfg }, &dir, false, |_| {})
+            .unwrap();
+    assert!(stopped.stopped_by_budget);
+    assert_eq!(stopped.epoch, 28);
+
+    // The best checkpoint loads for inference and its predictions beat the mean pose.
+    let model = HandModel::load(&dir.join("best.bpk")).unwrap();
+    let ex = &val_set[0];
+    let pred = model.predict(&ex.roll);
+    let norm = &resumed.normalisation;
+    let err = |p: &[[f32; HAND_VALUES]]| -> f32 {
+        p.iter().zip(&ex.hands).map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs()).sum::<f32>()).sum::<f32>()
+    };
+    let mean_pose = vec![norm.mean; ex.roll.len()];
+    assert!(err(&pred) < err(&mean_pose), "trained {} vs mean pose {}", err(&pred), err(&mean_pose));
+}
