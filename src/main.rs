@@ -110,6 +110,29 @@ enum Command {
         #[arg(long)]
         library: Option<PathBuf>,
     },
+    /// Train the hand model (the DRUMS BiLSTM) on the corpus, resuming from the checkpoint
+    /// in --out when there is one; the best-validation weights are OUT/best.bpk.
+    Train {
+        /// Training and validation dataset files (`drumsim corpus`); built from the Groove
+        /// MIDI folder when missing.
+        #[arg(long, default_value = "data/corpus-train.bin")]
+        train: PathBuf,
+        #[arg(long, default_value = "data/corpus-validation.bin")]
+        val: PathBuf,
+        #[arg(long, default_value = "../shared/data/gmd")]
+        gmd: PathBuf,
+        /// Mocap files of the MMIP shape (see the README) to train on as well.
+        #[arg(long)]
+        mocap: Vec<PathBuf>,
+        #[arg(long, default_value = "assets/hands")]
+        out: PathBuf,
+        /// Epochs to reach (a resumed run continues up to this count).
+        #[arg(long, default_value_t = 500)]
+        epochs: usize,
+        /// Stop cleanly (resumable) after this many minutes.
+        #[arg(long)]
+        max_minutes: Option<f64>,
+    },
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -157,6 +180,8 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::body::report::TrajectoryError>()
             || e.is::<drumsim::motion::corpus::CorpusError>()
             || e.is::<drumsim::motion::upper::LibraryError>()
+            || e.is::<drumsim::motion::hands::HandsError>()
+            || e.is::<drumsim::motion::mocap::MocapError>()
     });
     if bad_input {
         2
@@ -226,6 +251,38 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Limits { from, kit, out } => {
             drumsim::body::report::run_limits(from.as_deref(), &kit, &out)?;
             eprintln!("wrote {}", out.display());
+            Ok(())
+        }
+        Command::Train { train, val, gmd, mocap, out, epochs, max_minutes } => {
+            use drumsim::motion::{corpus, hands, mocap as mc};
+            let load = |path: &PathBuf, split: &str| -> anyhow::Result<Vec<hands::Example>> {
+                if !path.exists() {
+                    eprintln!("{} is missing: building it from {} ({split})", path.display(), gmd.display());
+                    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                        std::fs::create_dir_all(dir)?;
+                    }
+                    corpus::run_corpus(&gmd, path, split)?;
+                }
+                let ex = corpus::dataset::load_examples(path)?;
+                Ok(ex.into_iter().map(|e| hands::Example { id: e.id, roll: e.roll, hands: e.hands }).collect())
+            };
+            let mut train_set = load(&train, "train")?;
+            let val_set = load(&val, "validation")?;
+            let map = drumsim::midi::NoteMap::builtin("gm").expect("built-in map");
+            for path in &mocap {
+                let take = mc::load_mocap(path, &mc::JointNames::default(), Some(&map))?;
+                let e = take.example(&path.display().to_string());
+                train_set.push(hands::Example { id: e.id, roll: e.roll, hands: e.hands });
+            }
+            std::fs::create_dir_all(&out)?;
+            let r = hands::run_train(&train_set, &val_set, &out, epochs, max_minutes)?;
+            println!(
+                "epoch {}: best validation loss {:.5} at epoch {} -> {}",
+                r.epoch,
+                r.best_val_loss,
+                r.best_epoch,
+                out.join("best.bpk").display()
+            );
             Ok(())
         }
         Command::Corpus { gmd, split, out: _, library: Some(path) } => {
