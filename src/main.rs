@@ -40,6 +40,12 @@ enum Command {
         /// Skip notes the map does not know instead of failing.
         #[arg(long)]
         skip_unknown: bool,
+        /// Sound only: do not write SONG.motion.json, SONG.bvh and SONG.glb.
+        #[arg(long)]
+        no_motion: bool,
+        /// Hand model weights (default: assets/hands/best.bpk).
+        #[arg(long)]
+        weights: Option<PathBuf>,
     },
     /// Play a live MIDI input (e-kit, keyboard) through the speakers.
     Live {
@@ -182,6 +188,8 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::motion::upper::LibraryError>()
             || e.is::<drumsim::motion::hands::HandsError>()
             || e.is::<drumsim::motion::mocap::MocapError>()
+            || e.is::<drumsim::motion::pipeline::MotionError>()
+            || e.is::<drumsim::motion::export::ExportError>()
     });
     if bad_input {
         2
@@ -198,11 +206,20 @@ fn physical_not_built() -> anyhow::Error {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Render { song, out, sound, kit, map, channel, skip_unknown } => {
+        Command::Render { song, out, sound, kit, map, channel, skip_unknown, no_motion, weights } => {
             if matches!(sound, SoundMode::Physical) {
                 return Err(physical_not_built());
             }
-            let opts = drumsim::render::RenderOptions { out_dir: out, kit, map, channel, skip_unknown, progress: true };
+            let opts = drumsim::render::RenderOptions {
+                out_dir: out,
+                kit,
+                map,
+                channel,
+                skip_unknown,
+                progress: true,
+                motion: !no_motion,
+                weights,
+            };
             let report = drumsim::render::render_file(&song, &opts)?;
             eprintln!("{report}");
             Ok(())

@@ -27,6 +27,10 @@ pub struct RenderOptions {
     pub channel: Option<u8>,
     pub skip_unknown: bool,
     pub progress: bool,
+    /// Write the motion too (SONG.motion.json, SONG.bvh, SONG.glb).
+    pub motion: bool,
+    /// Hand model weights (default: the shipped ones, `motion::pipeline::default_weights`).
+    pub weights: Option<PathBuf>,
 }
 
 impl Default for RenderOptions {
@@ -38,6 +42,8 @@ impl Default for RenderOptions {
             channel: None,
             skip_unknown: false,
             progress: false,
+            motion: true,
+            weights: None,
         }
     }
 }
@@ -106,10 +112,72 @@ pub struct RenderReport {
     pub wall_s: f64,
     pub contacts: usize,
     pub non_finite_samples: u64,
+    /// The motion files, when written, and what the motion stage did.
+    pub motion: Option<MotionOutput>,
+}
+
+/// The motion a render wrote.
+#[derive(Debug, Clone)]
+pub struct MotionOutput {
+    pub paths: crate::motion::export::Paths,
+    /// "model WEIGHTS" or "teacher (no weights found)".
+    pub hands_from: String,
+    pub frames: usize,
+    pub dropped_notes: usize,
+    pub seconds: f64,
+}
+
+/// The motion stage of a render: hands from the model (or the teacher when no weights are
+/// found, said on stderr), strike planning on `kit`, retrieval, feet, then the exports.
+pub fn render_motion(
+    song: &Path,
+    stem: &str,
+    kit: &Kit,
+    map: &NoteMap,
+    opts: &RenderOptions,
+) -> anyhow::Result<MotionOutput> {
+    use crate::motion::{export, pipeline, rig::Rig};
+    let started = Instant::now();
+    let channel = opts.channel.unwrap_or(map.channel);
+    let perf = read_file(song, &ReadOptions { channel })?;
+    let weights = opts.weights.clone().or_else(pipeline::default_weights);
+    let (predicted, hands_from) = match &weights {
+        Some(path) => {
+            let model = crate::motion::hands::HandModel::load(path)?;
+            (pipeline::model_hands(&model, &perf, map), format!("model {}", path.display()))
+        }
+        None => {
+            eprintln!("drumsim: no hand model weights found (assets/hands/best.bpk): hands from the corpus teacher");
+            (pipeline::teacher_hands(&perf, map, kit)?, "teacher (no weights found)".to_string())
+        }
+    };
+    let library = pipeline::shipped_library()?;
+    let (motion, report) = pipeline::perform(&perf, map, kit, &predicted, &library)?;
+    let paths = export::write_all(&motion, &Rig::default(), &opts.out_dir, stem)?;
+    Ok(MotionOutput {
+        paths,
+        hands_from,
+        frames: report.frames,
+        dropped_notes: report.dropped,
+        seconds: started.elapsed().as_secs_f64(),
+    })
 }
 
 impl std::fmt::Display for RenderReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(m) = &self.motion {
+            writeln!(
+                f,
+                "motion: {} frames (hands from {}; {} notes no hand could play) in {:.2} s: {}, {}, {}",
+                m.frames,
+                m.hands_from,
+                m.dropped_notes,
+                m.seconds,
+                m.paths.json.display(),
+                m.paths.bvh.display(),
+                m.paths.glb.display()
+            )?;
+        }
         write!(
             f,
             "rendered {:.1} s of audio in {:.2} s ({:.0}x real time), {} contacts: {} and {}",
@@ -278,7 +346,9 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
     let wav_path = wav.finish().map_err(|e| anyhow::anyhow!("cannot finish {}: {e}", wav_path.display()))?;
     let json = serde_json::to_vec_pretty(&score.contacts)?;
     write_atomically(&json_path, &json).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", json_path.display()))?;
+    let motion = if opts.motion { Some(render_motion(song, &stem, &kit, &map, opts)?) } else { None };
     Ok(RenderReport {
+        motion,
         wav: wav_path,
         contacts_json: json_path,
         audio_s: samples as f64 / SAMPLE_RATE_HZ as f64,

@@ -61,7 +61,7 @@ pub fn savgol_filter(x: &[f64], window: usize, order: usize) -> Result<Vec<f64>,
 }
 
 fn check_window(window: usize, order: usize) -> Result<(), MotionMetricError> {
-    if window % 2 == 0 || window <= order {
+    if window.is_multiple_of(2) || window <= order {
         return Err(MotionMetricError::Invalid {
             what: "savitzky-golay",
             message: format!("window {window} must be odd and above the order {order}"),

@@ -37,6 +37,38 @@ pub struct MotionReport {
     pub retrieval: MatchReport,
 }
 
+/// Where the hand model's weights are looked for when none are given: `$DRUMSIM_ASSETS`,
+/// then `assets/` in the working directory, then the `assets/` of the source tree the
+/// binary was built in (`target/release/drumsim` -> `assets/`).
+pub fn default_weights() -> Option<std::path::PathBuf> {
+    let rel = std::path::Path::new("hands").join("best.bpk");
+    let mut roots: Vec<std::path::PathBuf> = Vec::new();
+    if let Some(dir) = std::env::var_os("DRUMSIM_ASSETS") {
+        roots.push(dir.into());
+    }
+    roots.push("assets".into());
+    if let Ok(exe) = std::env::current_exe() {
+        if let Some(root) = exe.parent().and_then(|d| d.parent()).and_then(|d| d.parent()) {
+            roots.push(root.join("assets"));
+        }
+    }
+    roots.into_iter().map(|r| r.join(&rel)).find(|p| p.is_file())
+}
+
+/// The shipped retrieval library (compiled in from `assets/upper-library.bin`).
+pub fn shipped_library() -> Result<Library, LibraryError> {
+    Library::from_bytes(
+        include_bytes!("../../assets/upper-library.bin"),
+        std::path::Path::new("assets/upper-library.bin"),
+    )
+}
+
+/// The hand model's poses for `perf`, one per roll frame.
+pub fn model_hands(model: &super::hands::HandModel, perf: &Performance, map: &NoteMap) -> Vec<[Pose; 2]> {
+    let roll = piano_roll(perf, map);
+    model.predict_roll(&roll).iter().map(super::track::values_to_hands).collect()
+}
+
 /// The teacher's hands for `perf`: the documented fallback when no trained weights exist.
 pub fn teacher_hands(perf: &Performance, map: &NoteMap, kit: &Kit) -> Result<Vec<[Pose; 2]>, CorpusError> {
     let t = corpus::teach(perf, map, kit, 0)?;

@@ -102,7 +102,7 @@ impl Bank {
             let end = out.len().min(i + to_check);
             self.process_segment(&mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]), acc);
             self.clock += (end - i) as u64;
-            if self.clock % SLEEP_CHECK == 0 {
+            if self.clock.is_multiple_of(SLEEP_CHECK) {
                 for c in 0..self.active.len() {
                     if self.active[c] {
                         self.sleep_if_silent(c);

@@ -50,7 +50,7 @@ impl Bin {
     fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
         let offset = self.data.len();
         self.data.extend_from_slice(bytes);
-        while self.data.len() % 4 != 0 {
+        while !self.data.len().is_multiple_of(4) {
             self.data.push(0);
         }
         let mut v = json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len()});
@@ -231,10 +231,10 @@ fn bone_shapes(rig: &Rig, rest: &[Vector3<f32>]) -> (Vec<f32>, Vec<u16>, Vec<f32
 /// zeros, both to 4 bytes.
 fn glb(json_text: &str, mut bin: Vec<u8>) -> Vec<u8> {
     let mut json_bytes = json_text.as_bytes().to_vec();
-    while json_bytes.len() % 4 != 0 {
+    while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json_bytes.len() + 8 + bin.len();

@@ -69,7 +69,8 @@ impl TrainConfig {
         if self.window == 0 || self.batch == 0 || self.hidden == 0 {
             return bad("window, batch and hidden must be at least 1");
         }
-        if !(self.lr > 0.0 && self.lr.is_finite()) || !(self.clip_norm > 0.0) || !(self.weight_decay >= 0.0) {
+        let ok = self.lr > 0.0 && self.lr.is_finite() && self.clip_norm > 0.0 && self.weight_decay >= 0.0;
+        if !ok {
             return bad("lr and clip_norm must be positive, weight_decay non-negative");
         }
         if !(0.0..1.0).contains(&self.dropout) {
