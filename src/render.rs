@@ -127,6 +127,17 @@ pub struct MotionOutput {
     pub seconds: f64,
 }
 
+/// The hand model of a render: the given or shipped weights (an error when they cannot be
+/// read), or `None` when there are none to find (the teacher plays, said on stderr).
+pub type Hands = Option<(crate::motion::hands::HandModel, PathBuf)>;
+
+pub fn load_hands(opts: &RenderOptions) -> anyhow::Result<Hands> {
+    match opts.weights.clone().or_else(crate::motion::pipeline::default_weights) {
+        Some(path) => Ok(Some((crate::motion::hands::HandModel::load(&path)?, path))),
+        None => Ok(None),
+    }
+}
+
 /// The motion stage of a render: hands from the model (or the teacher when no weights are
 /// found, said on stderr), strike planning on `kit`, retrieval, feet, then the exports.
 pub fn render_motion(
@@ -135,17 +146,14 @@ pub fn render_motion(
     kit: &Kit,
     map: &NoteMap,
     opts: &RenderOptions,
+    hands: Hands,
 ) -> anyhow::Result<MotionOutput> {
     use crate::motion::{export, pipeline, rig::Rig};
     let started = Instant::now();
     let channel = opts.channel.unwrap_or(map.channel);
     let perf = read_file(song, &ReadOptions { channel })?;
-    let weights = opts.weights.clone().or_else(pipeline::default_weights);
-    let (predicted, hands_from) = match &weights {
-        Some(path) => {
-            let model = crate::motion::hands::HandModel::load(path)?;
-            (pipeline::model_hands(&model, &perf, map), format!("model {}", path.display()))
-        }
+    let (predicted, hands_from) = match &hands {
+        Some((model, path)) => (pipeline::model_hands(model, &perf, map), format!("model {}", path.display())),
         None => {
             eprintln!("drumsim: no hand model weights found (assets/hands/best.bpk): hands from the corpus teacher");
             (pipeline::teacher_hands(&perf, map, kit)?, "teacher (no weights found)".to_string())
@@ -315,6 +323,8 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
         .to_string_lossy()
         .into_owned();
     let score = score_file(song, &kit, &map, opts)?;
+    // The hand model is read before anything is written: bad weights stop the render early.
+    let hands = if opts.motion { Some(load_hands(opts)?) } else { None };
     std::fs::create_dir_all(&opts.out_dir)
         .map_err(|e| anyhow::anyhow!("cannot create output directory {}: {e}", opts.out_dir.display()))?;
     let wav_path = opts.out_dir.join(format!("{stem}.wav"));
@@ -346,7 +356,10 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
     let wav_path = wav.finish().map_err(|e| anyhow::anyhow!("cannot finish {}: {e}", wav_path.display()))?;
     let json = serde_json::to_vec_pretty(&score.contacts)?;
     write_atomically(&json_path, &json).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", json_path.display()))?;
-    let motion = if opts.motion { Some(render_motion(song, &stem, &kit, &map, opts)?) } else { None };
+    let motion = match hands {
+        Some(hands) => Some(render_motion(song, &stem, &kit, &map, opts, hands)?),
+        None => None,
+    };
     Ok(RenderReport {
         motion,
         wav: wav_path,

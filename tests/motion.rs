@@ -84,3 +84,60 @@ fn a_rearranged_kit_moves_every_strike_with_it() {
     eprintln!("rearranged kit: {on} of {total} notes on the surface within one frame");
     assert!(on as f64 >= 0.995 * total as f64, "{on} of {total}");
 }
+
+fn drumsim(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_drumsim")).args(args).output().unwrap()
+}
+
+#[test]
+fn render_writes_the_motion_beside_the_sound() {
+    let dir = std::env::temp_dir().join(format!("drumsim-motion-{}", std::process::id()));
+    let out = drumsim(&["render", "assets/demo/demo.mid", "--out", dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("demo.motion.json")).unwrap()).unwrap();
+    assert_eq!(json["bones"].as_array().unwrap().len(), 57);
+    assert_eq!(json["face_names"].as_array().unwrap().len(), 52);
+    let frames = json["frames"].as_array().unwrap();
+    // One frame per roll frame: the demo's duration at 60 fps.
+    let perf = read_file(Path::new("assets/demo/demo.mid"), &ReadOptions::default()).unwrap();
+    let roll = drumsim::midi::roll::piano_roll(&perf, &NoteMap::builtin("gm").unwrap());
+    assert_eq!(frames.len(), roll.len());
+    assert_eq!(frames[0]["bones"].as_array().unwrap().len(), 57);
+    assert!(std::fs::metadata(dir.join("demo.bvh")).unwrap().len() > 0);
+    let glb = std::fs::read(dir.join("demo.glb")).unwrap();
+    assert_eq!(&glb[..4], b"glTF");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn missing_or_corrupt_weights_are_refused_naming_the_file() {
+    let dir = std::env::temp_dir().join(format!("drumsim-weights-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let missing = dir.join("nothing.bpk");
+    let out = drumsim(&[
+        "render",
+        "assets/demo/demo.mid",
+        "--out",
+        dir.to_str().unwrap(),
+        "--weights",
+        missing.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("nothing.bpk"), "{}", String::from_utf8_lossy(&out.stderr));
+    let corrupt = dir.join("corrupt.bpk");
+    std::fs::write(&corrupt, b"these are not weights").unwrap();
+    let out = drumsim(&[
+        "render",
+        "assets/demo/demo.mid",
+        "--out",
+        dir.to_str().unwrap(),
+        "--weights",
+        corrupt.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("corrupt.bpk"), "{}", String::from_utf8_lossy(&out.stderr));
+    // Refused before anything was written.
+    assert!(!dir.join("demo.motion.json").exists() && !dir.join("demo.wav").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
