@@ -116,6 +116,20 @@ enum Command {
         #[arg(long)]
         library: Option<PathBuf>,
     },
+    /// Measure a render: hits and timing of its contacts against the MIDI, the DRUMS beat
+    /// alignment of its hands, and (with --reference) L1, DTW and jerk against a reference
+    /// motion. Prints one JSON object (DESIGN.md section 7).
+    Eval {
+        song: PathBuf,
+        /// The folder `drumsim render` wrote SONG.contacts.json and SONG.motion.json to.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// A reference SONG.motion.json (e.g. mocap exported through the same rig).
+        #[arg(long)]
+        reference: Option<PathBuf>,
+        #[arg(long, default_value = "gm")]
+        map: String,
+    },
     /// Train the hand model (the DRUMS BiLSTM) on the corpus, resuming from the checkpoint
     /// in --out when there is one; the best-validation weights are OUT/best.bpk.
     Train {
@@ -138,6 +152,10 @@ enum Command {
         /// Stop cleanly (resumable) after this many minutes.
         #[arg(long)]
         max_minutes: Option<f64>,
+        /// Do not train: measure OUT/best.bpk against the teacher on the validation set
+        /// (L1 per hand, beat alignment) and print it as JSON.
+        #[arg(long)]
+        report: bool,
     },
 }
 
@@ -190,6 +208,8 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::motion::mocap::MocapError>()
             || e.is::<drumsim::motion::pipeline::MotionError>()
             || e.is::<drumsim::motion::export::ExportError>()
+            || e.is::<drumsim::eval::report::EvalError>()
+            || e.is::<drumsim::eval::motion::MotionMetricError>()
     });
     if bad_input {
         2
@@ -270,7 +290,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             eprintln!("wrote {}", out.display());
             Ok(())
         }
-        Command::Train { train, val, gmd, mocap, out, epochs, max_minutes } => {
+        Command::Eval { song, out, reference, map } => {
+            let map = drumsim::midi::NoteMap::load(&map)?;
+            let m = drumsim::eval::report::run_eval(&song, &out, reference.as_deref(), &map)?;
+            println!("{}", serde_json::to_string(&m)?);
+            Ok(())
+        }
+        Command::Train { train, val, gmd, mocap, out, epochs, max_minutes, report } => {
             use drumsim::motion::{corpus, hands, mocap as mc};
             let load = |path: &PathBuf, split: &str| -> anyhow::Result<Vec<hands::Example>> {
                 if !path.exists() {
@@ -283,8 +309,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 let ex = corpus::dataset::load_examples(path)?;
                 Ok(ex.into_iter().map(|e| hands::Example { id: e.id, roll: e.roll, hands: e.hands }).collect())
             };
-            let mut train_set = load(&train, "train")?;
             let val_set = load(&val, "validation")?;
+            if report {
+                let model = hands::HandModel::load(&out.join("best.bpk"))?;
+                let v = hands::validate::validate(&model, &val_set)?;
+                println!("{}", serde_json::to_string(&v)?);
+                return Ok(());
+            }
+            let mut train_set = load(&train, "train")?;
             let map = drumsim::midi::NoteMap::builtin("gm").expect("built-in map");
             for path in &mocap {
                 let take = mc::load_mocap(path, &mc::JointNames::default(), Some(&map))?;

@@ -141,3 +141,42 @@ fn missing_or_corrupt_weights_are_refused_naming_the_file() {
     assert!(!dir.join("demo.motion.json").exists() && !dir.join("demo.wav").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn eval_measures_a_render_against_its_midi_and_a_reference() {
+    let dir = std::env::temp_dir().join(format!("drumsim-eval-{}", std::process::id()));
+    let out = drumsim(&["render", "assets/demo/demo.mid", "--out", dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let reference = dir.join("demo.motion.json");
+    let out = drumsim(&[
+        "eval",
+        "assets/demo/demo.mid",
+        "--out",
+        dir.to_str().unwrap(),
+        "--reference",
+        reference.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let m: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    eprintln!("{m}");
+    // Direct mode: every note sounds at its onset.
+    assert_eq!(m["hits"]["recall"].as_f64(), Some(1.0));
+    assert!(m["timing_ms"]["p95_abs"].as_f64().unwrap() < 1.0);
+    // The motion against itself: no distance.
+    assert_eq!(m["hands"]["l1_m"].as_f64(), Some(0.0));
+    assert_eq!(m["hands"]["dtw"].as_f64(), Some(0.0));
+    assert!(m["beat_alignment_ms"]["matched"].as_u64().unwrap() > 0);
+    assert!(m["ipd_mm"].is_null());
+    // A render folder without the files: a clear error, exit 2.
+    let out = drumsim(&[
+        "eval",
+        "assets/demo/demo.mid",
+        "--out",
+        dir.to_str().unwrap(),
+        "--reference",
+        "/no/such.motion.json",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/no/such.motion.json"));
+    std::fs::remove_dir_all(&dir).ok();
+}

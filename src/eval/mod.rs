@@ -4,5 +4,6 @@ pub mod audio;
 pub mod beat;
 pub mod dtw;
 pub mod motion;
+pub mod report;
 pub mod savgol;
 pub mod strike;

@@ -13,6 +13,7 @@
 pub mod infer;
 pub mod model;
 pub mod train;
+pub mod validate;
 pub mod weights;
 
 use std::path::PathBuf;

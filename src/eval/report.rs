@@ -1,0 +1,156 @@
+//! `drumsim eval SONG.mid --out DIR [--reference REF.motion.json]`: the measures of
+//! DESIGN.md section 5 for what `drumsim render` wrote in DIR, as one JSON object.
+//!
+//! - Hits: a hand or foot note (every note the map knows) is hit when a contact on its
+//!   piece (or that piece's `_rim`) begins within +-10 ms of the onset; recall = notes hit /
+//!   notes, precision = contacts that match some note / contacts.
+//! - Timing: for each hit note, its first matching contact's start - the onset, ms.
+//! - Beat alignment (DRUMS): from the hand bones' positions in DIR/SONG.motion.json.
+//! - Hands (only with a reference): L1, DTW and jerk of the hand bones against the
+//!   reference's (another SONG.motion.json, e.g. mocap exported through the same rig).
+//! - IPD is null until contacts carry their intended point (physical sound).
+
+use super::motion::{
+    hand_onsets_s, mean_sd_median, motion_metrics, HitRates, MotionMetricError, MotionMetrics, TimingMs,
+};
+use crate::midi::{read_file, DrumEventKind, NoteMap, ReadOptions};
+use crate::motion::rig::HAND;
+use crate::motion::{Motion, MotionFrame, Pose};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// A contact and a note match within this, seconds.
+pub const HIT_WINDOW_S: f64 = 0.010;
+
+#[derive(Debug, thiserror::Error)]
+pub enum EvalError {
+    #[error(transparent)]
+    Midi(#[from] crate::midi::MidiError),
+    #[error("{path}: cannot read: {source}")]
+    Read { path: PathBuf, source: std::io::Error },
+    #[error("{path}: not a drumsim {what} file: {source}")]
+    Parse { path: PathBuf, what: &'static str, source: serde_json::Error },
+    #[error("{path}: {message}")]
+    Content { path: PathBuf, message: String },
+    #[error(transparent)]
+    Metric(#[from] MotionMetricError),
+}
+
+#[derive(Deserialize)]
+struct ContactsFile {
+    contacts: Vec<Contact>,
+}
+
+#[derive(Deserialize)]
+struct Contact {
+    piece: String,
+    time_s: f64,
+}
+
+#[derive(Deserialize)]
+struct MotionFile {
+    fps: f64,
+    bones: Vec<BoneName>,
+    frames: Vec<MotionFileFrame>,
+}
+
+#[derive(Deserialize)]
+struct BoneName {
+    name: String,
+}
+
+#[derive(Deserialize)]
+struct MotionFileFrame {
+    bones: Vec<[f32; 7]>,
+}
+
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path, what: &'static str) -> Result<T, EvalError> {
+    let bytes = std::fs::read(path).map_err(|source| EvalError::Read { path: path.into(), source })?;
+    serde_json::from_slice(&bytes).map_err(|source| EvalError::Parse { path: path.into(), what, source })
+}
+
+/// The hand bones of a SONG.motion.json as a `Motion` whose hands are those bones.
+pub fn read_motion_hands(path: &Path) -> Result<Motion, EvalError> {
+    let file: MotionFile = read_json(path, "motion")?;
+    let names = ["left_hand", "right_hand"];
+    let idx: Vec<usize> = names
+        .iter()
+        .zip(HAND)
+        .map(|(n, default)| file.bones.iter().position(|b| b.name == *n).unwrap_or(default))
+        .collect();
+    let mut frames = Vec::with_capacity(file.frames.len());
+    for (i, f) in file.frames.iter().enumerate() {
+        let pose = |b: usize| -> Result<Pose, EvalError> {
+            let v = f.bones.get(b).ok_or_else(|| EvalError::Content {
+                path: path.into(),
+                message: format!("frame {i} has {} bones, no bone {b}", f.bones.len()),
+            })?;
+            Ok(Pose { pos: [v[0], v[1], v[2]], rot: [v[3], v[4], v[5], v[6]] })
+        };
+        let hands = [pose(idx[0])?, pose(idx[1])?];
+        frames.push(MotionFrame {
+            hands,
+            chest: Pose::IDENTITY,
+            head: Pose::IDENTITY,
+            feet: [Pose::IDENTITY; 2],
+            face: Vec::new(),
+            hihat_openness: 0.0,
+        });
+    }
+    Ok(Motion { fps: file.fps, frames })
+}
+
+/// Measure DIR/STEM.* of `song`.
+pub fn run_eval(song: &Path, dir: &Path, reference: Option<&Path>, map: &NoteMap) -> Result<MotionMetrics, EvalError> {
+    let perf = read_file(song, &ReadOptions { channel: map.channel })?;
+    let stem = song.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let contacts_path = dir.join(format!("{stem}.contacts.json"));
+    let motion_path = dir.join(format!("{stem}.motion.json"));
+    // Notes (hand and foot) with their pieces.
+    let notes: Vec<(f64, &str)> = perf
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            DrumEventKind::NoteOn { note, .. } => map.entry(note).map(|m| (e.time_s, m.piece.as_str())),
+            _ => None,
+        })
+        .collect();
+    let mut out = MotionMetrics { notes: Some(notes.len()), ..MotionMetrics::default() };
+    if contacts_path.exists() {
+        let contacts: ContactsFile = read_json(&contacts_path, "contacts")?;
+        let matches = |c: &Contact, (t, piece): (f64, &str)| {
+            (c.time_s - t).abs() <= HIT_WINDOW_S + 1e-6
+                && (c.piece == piece || c.piece.strip_suffix("_rim") == Some(piece))
+        };
+        let mut errors = Vec::new();
+        let mut hit = 0;
+        for &n in &notes {
+            if let Some(c) =
+                contacts.contacts.iter().filter(|c| matches(c, n)).min_by(|a, b| a.time_s.total_cmp(&b.time_s))
+            {
+                hit += 1;
+                errors.push(1e3 * (c.time_s - n.0));
+            }
+        }
+        let real = contacts.contacts.iter().filter(|c| notes.iter().any(|&n| matches(c, n))).count();
+        out.contacts = Some(contacts.contacts.len());
+        out.hits = Some(HitRates {
+            recall: if notes.is_empty() { 1.0 } else { hit as f64 / notes.len() as f64 },
+            precision: if contacts.contacts.is_empty() { 1.0 } else { real as f64 / contacts.contacts.len() as f64 },
+        });
+        out.timing_ms = mean_sd_median(&errors).map(|(mean, sd, median)| {
+            let mut abs: Vec<f64> = errors.iter().map(|e| e.abs()).collect();
+            abs.sort_by(f64::total_cmp);
+            let p95_abs = abs[((0.95 * abs.len() as f64).ceil() as usize).clamp(1, abs.len()) - 1];
+            TimingMs { mean, sd, median, p95_abs }
+        });
+    }
+    if motion_path.exists() {
+        let pred = read_motion_hands(&motion_path)?;
+        let reference = reference.map(read_motion_hands).transpose()?;
+        let m = motion_metrics(&pred, reference.as_ref(), &hand_onsets_s(&perf, map))?;
+        out.beat_alignment_ms = m.beat_alignment_ms;
+        out.hands = m.hands;
+    }
+    Ok(out)
+}
