@@ -211,3 +211,37 @@ fn absurd_settings_are_rejected_with_the_key() {
         Drummer::new(&kit, DrummerSettings { limits: Some(Vec::new()), ..DrummerSettings::default() }).err().unwrap();
     assert!(matches!(err, DrummerError::Setting { key: "limits", .. }), "{err}");
 }
+
+#[test]
+fn the_feet_follow_their_pedal_targets_and_the_whole_figure_exists() {
+    use drumsim::body::legs::{FootTarget, FEET_HOME};
+    let kit = Kit::builtin_default();
+    let mut d = Drummer::new(&kit, DrummerSettings::default()).unwrap();
+    let legs = d.leg_poses();
+    for side in 0..2 {
+        let ankle = legs[side][2];
+        let home = FEET_HOME[side];
+        assert!((0..3).all(|k| (ankle[k] - home[k]).abs() < 1e-3), "{ankle:?}");
+        // The knee is forward of the hip and above the pedal.
+        assert!(legs[side][1].y > legs[side][0].y && legs[side][1].z > ankle.z);
+    }
+    // A kick press: the right foot lifts 4 cm with the toe up, then comes down at the hit.
+    let lifted = FootTarget { ankle: Vector::new(0.10, 0.40, 0.14), toe_up_rad: 0.3 };
+    // The arms hold still where they are.
+    let hold = |d: &Drummer| {
+        let (t, s) = (d.tips(Mode::Ik), d.stick_dirs());
+        [ArmTarget { tip: t[0], dir: s[0] }, ArmTarget { tip: t[1], dir: s[1] }]
+    };
+    d.set_feet([FootTarget::home(0), lifted]);
+    for _ in 0..10 {
+        let targets = hold(&d);
+        d.step_tips(Mode::Himc, &targets, &mut |_| {});
+    }
+    let up = d.leg_poses()[1];
+    assert!((up[2] - lifted.ankle).length() < 1e-3, "{:?}", up[2]);
+    assert!(up[3].z > up[2].z + 0.05, "toe raised: {:?} over {:?}", up[3], up[2]);
+    d.set_feet([FootTarget::home(0), FootTarget::home(1)]);
+    let targets = hold(&d);
+    d.step_tips(Mode::Himc, &targets, &mut |_| {});
+    assert!((d.leg_poses()[1][2].z - FEET_HOME[1][2]).abs() < 1e-3);
+}

@@ -8,6 +8,7 @@
 pub mod anthropometry;
 pub mod contacts;
 pub mod ik;
+pub mod legs;
 pub mod limits;
 pub mod limits_data;
 pub mod model;

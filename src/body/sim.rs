@@ -148,6 +148,8 @@ pub struct Drummer {
     pub max_limit_excess: f32,
     /// The joint where it was seen.
     pub worst_limit_joint: usize,
+    /// The kinematic legs and feet (posed from foot targets, not simulated).
+    legs: super::legs::Legs,
 }
 
 /// Joint-space targets of one step for `id` mode: rotations and angular velocities
@@ -168,6 +170,7 @@ impl Drummer {
         let rest = ready_pose(&skel, kit, &settings.ik);
         let pose = skel.forward(Rotation::IDENTITY, &rest);
         let mut model = model::build(&skel, &pose, kit, settings.solver_iterations);
+        let legs = super::legs::Legs::build(&mut model.world, &anthro);
         let gains = gains(&skel, &pose, settings.natural_hz, settings.damping_ratio);
         for (j, g) in gains.iter().enumerate() {
             if let Some(joint) = model.world.impulse_joints.get_mut(model.joints[j], false) {
@@ -201,6 +204,7 @@ impl Drummer {
             disturbance: [Vector::ZERO; LINKS],
             max_limit_excess: 0.0,
             worst_limit_joint: 0,
+            legs,
         })
     }
 
@@ -279,6 +283,27 @@ impl Drummer {
     /// Largest penetration of a stick into a kit piece seen so far, metres.
     pub fn max_penetration_m(&self) -> f32 {
         self.contacts.max_penetration_m
+    }
+
+    /// Put the feet where the pedals need them (kick: right, hi-hat: left). The legs are
+    /// kinematic: they follow exactly from the next step on.
+    pub fn set_feet(&mut self, targets: [super::legs::FootTarget; 2]) {
+        self.legs.set_targets(&mut self.model.world, targets);
+    }
+
+    /// Hip, knee, ankle and toe of each leg (left, right) as the physics world holds them.
+    pub fn leg_poses(&self) -> [super::legs::LegPose; 2] {
+        [0, 1].map(|side| {
+            let b = |k: usize| &self.model.world.bodies[self.legs.bodies[side][k]];
+            let (thigh, shank, foot) = (b(0), b(1), b(2));
+            let down = -Vector::Z;
+            [
+                thigh.translation(),
+                shank.translation(),
+                foot.translation(),
+                foot.translation() + foot.rotation() * down * self.legs.foot_m,
+            ]
+        })
     }
 
     /// Push a link with an external torque (world axes), held until changed (perturbation
