@@ -12,11 +12,13 @@
 //! - Sigmoid and tanh through one branch-free, vectorisable `exp` (Cephes' polynomial,
 //!   about 1 ulp), applied to whole gate vectors.
 //!
-//! The kernels are plain loops over fixed-size arrays that LLVM vectorises. They run inside
-//! `pulp::Arch::dispatch`, which with pulp's `x86-v3` feature compiles them a second time
-//! for AVX2 and picks that version at run time (safe code; the crate builds for the default
-//! x86-64 target). The feature is on (Cargo.toml); fused multiply-add only where the build
-//! targets it (see `fma_available`).
+//! The kernels are plain loops over fixed-size arrays that LLVM vectorises, called through
+//! `pulp::Arch::dispatch` (pulp's `x86-v3` feature is on, and this machine selects V3).
+//! Measured, though, the kernels are not compiled for AVX2 + FMA there: `f32::mul_add`
+//! inside them stays a libm call (18.8 s for 3 minutes instead of 0.5 s), and AVX2 gives no
+//! gain, so today they run as the default x86-64 (SSE2) build makes them. Getting AVX2 + FMA
+//! needs the kernels written against pulp's `Simd` trait (`WithSimd`), or a build with
+//! `-C target-cpu=x86-64-v3`.
 
 use std::path::Path;
 
@@ -196,9 +198,7 @@ impl HandModel {
 }
 
 /// Fused multiply-add only where the build targets it (`-C target-cpu=native` on a CPU with
-/// FMA). pulp's run-time dispatch compiles the kernels for AVX2 + FMA too, but `f32::mul_add`
-/// is not inlined there (measured: 18.8 s instead of 0.5 s, a libm call per element), so the
-/// dispatched kernels use `a * b + c`.
+/// FMA); elsewhere `f32::mul_add` is a libm call (see the module doc).
 fn fma_available() -> bool {
     cfg!(target_feature = "fma")
 }
