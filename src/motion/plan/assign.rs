@@ -116,12 +116,23 @@ fn assign_strokes(
     let mut steps: Vec<Vec<Entry>> = Vec::with_capacity(n);
     let here = |i: usize, h: usize| s.per_metre * dist(predicted(h, notes[i].time_s), notes[i].point);
     steps.push((0..2).map(|h| ((h, FREE), here(0, h), 0)).collect());
+    let mut slot = vec![usize::MAX; 2 * (s.memory + 1)];
     for i in 1..n {
         let mut next: Vec<Entry> = Vec::new();
-        let mut put = |state: (usize, usize), cost: f64, parent: usize| match next.iter_mut().find(|e| e.0 == state) {
-            Some(e) if e.1 <= cost => {}
-            Some(e) => *e = (state, cost, parent),
-            None => next.push((state, cost, parent)),
+        // Where each state sits in `next`: per hand, the other hand's last note i-1-d for
+        // d < memory, or FREE in the last slot.
+        slot.iter_mut().for_each(|x| *x = usize::MAX);
+        let mut put = |state: (usize, usize), cost: f64, parent: usize| {
+            let d = if state.1 == FREE { s.memory } else { (i - 1 - state.1).min(s.memory) };
+            let at = &mut slot[state.0 * (s.memory + 1) + d];
+            match next.get_mut(*at) {
+                Some(e) if e.1 <= cost => {}
+                Some(e) => *e = (state, cost, parent),
+                None => {
+                    *at = next.len();
+                    next.push((state, cost, parent));
+                }
+            }
         };
         for (pi, &((h, k), cost, _)) in steps[i - 1].iter().enumerate() {
             // The same hand again: the other hand's last note stays (or is forgotten).
