@@ -170,7 +170,7 @@ impl Drummer {
         let rest = ready_pose(&skel, kit, &settings.ik);
         let pose = skel.forward(Rotation::IDENTITY, &rest);
         let mut model = model::build(&skel, &pose, kit, settings.solver_iterations);
-        let legs = super::legs::Legs::build(&mut model.world, &anthro);
+        let legs = super::legs::Legs::new(&anthro);
         let gains = gains(&skel, &pose, settings.natural_hz, settings.damping_ratio);
         for (j, g) in gains.iter().enumerate() {
             if let Some(joint) = model.world.impulse_joints.get_mut(model.joints[j], false) {
@@ -286,24 +286,14 @@ impl Drummer {
     }
 
     /// Put the feet where the pedals need them (kick: right, hi-hat: left). The legs are
-    /// kinematic: they follow exactly from the next step on.
+    /// kinematic: they are there at once.
     pub fn set_feet(&mut self, targets: [super::legs::FootTarget; 2]) {
-        self.legs.set_targets(&mut self.model.world, targets);
+        self.legs.set_targets(targets);
     }
 
-    /// Hip, knee, ankle and toe of each leg (left, right) as the physics world holds them.
+    /// Hip, knee, ankle and toe of each leg (left, right).
     pub fn leg_poses(&self) -> [super::legs::LegPose; 2] {
-        [0, 1].map(|side| {
-            let b = |k: usize| &self.model.world.bodies[self.legs.bodies[side][k]];
-            let (thigh, shank, foot) = (b(0), b(1), b(2));
-            let down = -Vector::Z;
-            [
-                thigh.translation(),
-                shank.translation(),
-                foot.translation(),
-                foot.translation() + foot.rotation() * down * self.legs.foot_m,
-            ]
-        })
+        [self.legs.pose(0), self.legs.pose(1)]
     }
 
     /// Push a link with an external torque (world axes), held until changed (perturbation
