@@ -12,4 +12,5 @@ pub mod live;
 pub mod midi;
 pub mod motion;
 pub mod render;
+pub mod rng;
 pub mod sound;

@@ -43,25 +43,7 @@ pub struct TrialResult {
     pub surface_names: Vec<String>,
 }
 
-/// A small deterministic generator (splitmix64) for the perturbations.
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Rng {
-        Rng(seed ^ 0x5DEE_CE66_D1CE_4E5B)
-    }
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [-1, 1).
-    pub fn sym(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 23) as f32 - 1.0
-    }
-}
+pub use crate::rng::Rng;
 
 /// The two hands' plans for a style, perturbed by `rng` (no perturbation when `None`).
 pub fn plans_for(drummer: &Drummer, style: Style, rng: Option<&mut Rng>) -> [StrokePlan; 2] {
