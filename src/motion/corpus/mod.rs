@@ -19,6 +19,7 @@
 
 pub mod dataset;
 pub mod face;
+pub mod grip;
 pub mod sticking;
 pub mod strokes;
 pub mod travel;
@@ -167,8 +168,11 @@ pub fn teach(perf: &Performance, map: &NoteMap, kit: &Kit, seed: u64) -> Result<
         }
     }
     let mut rng = Rng::new(seed);
-    let hands: [Vec<_>; 2] =
-        std::array::from_fn(|h| strokes::hand_track(h, &per_hand[h], kit, frames, &mut rng.fork(h as u64 + 1)));
+    let mut onsets: Vec<f64> = planned.iter().map(|n| n.frame as f64 / FPS).collect();
+    onsets.dedup();
+    let hands: [Vec<_>; 2] = std::array::from_fn(|h| {
+        strokes::hand_track(h, &per_hand[h], &onsets, kit, frames, &mut rng.fork(h as u64 + 1))
+    });
     let beat = upper::estimate_beat(perf, map, frames);
     let tips: Vec<[[f32; 3]; 2]> = (0..frames).map(|f| [hands[0][f].stick_tip(), hands[1][f].stick_tip()]).collect();
     let (chest, head) = upper::upper_body(&tips, &planned, &beat, frames, &mut rng.fork(11));

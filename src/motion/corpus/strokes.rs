@@ -1,10 +1,10 @@
-//! Strokes: one hand's stick-tip trajectory and grip pose at 60 fps, from the notes the
-//! sticking gave it.
+//! Strokes: one hand's stick-tip height and grip pose at 60 fps, from the notes the sticking
+//! gave it.
 //!
-//! Between two contacts of a hand (times t0 < t1, the notes' frame times) the tip is
-//! `base(t) + n(t) * h(t)`: `base` moves from the first strike point to the second with
-//! minimum-jerk progress (late, so the stick rests over the last piece until it has to go),
-//! `n` is the surface normal blended the same way, and the height `h` is cubic Hermite pieces:
+//! The grip (the hand pose's position) follows its own path and timing ([`super::grip`]): it
+//! is fastest at every contact and waits, still, between. The stick then pivots in the hand
+//! so that its tip is at the height `h(t)` above the piece it is over; `h` is cubic Hermite
+//! pieces between two contacts (times t0 < t1, the notes' frame times):
 //! - rebound: up from the surface at `REBOUND` times the strike speed, to the rest height
 //!   (`REST_M`, low over the piece), where it waits;
 //! - preparatory lift to a height that grows with the next note's velocity ([`lift_height`]:
@@ -16,23 +16,25 @@
 //!
 //! When the notes are too close for rebound, wait and lift, the stroke is one rise to the
 //! (capped) lift and the downstroke. The curves are analytic, so they are evaluated exactly at
-//! the frame times (no internal resampling is needed: the contact frame is a knot).
+//! the frame times (the contact frame is a knot).
 //!
-//! Orientation: the stick points from the grip to the tip, yawed as from a pivot beside and
-//! behind the drummer (the shoulder of that hand), pitched down `PITCH_IMPACT_DEG` at impact and
-//! rotating up with the height (the wrist), so the grip moves far less than the tip. The grip
-//! (the hand pose) is `tip - rot * STICK_TIP_LOCAL`.
+//! Orientation: the stick is yawed as from a pivot beside and behind the drummer (the
+//! shoulder of that hand, [`grip::PIVOTS`]) toward the point it is over, and pitched so that
+//! the tip is at `h` ([`grip::solve_pitch`]); at a contact that is exactly
+//! [`grip::PITCH_IMPACT_DEG`] and the tip is exactly on the strike point.
 //!
 //! Human variation, from the seed: the interior knot times (apex, end of the wait) move by up
-//! to 3 ms (never the contact), lift and rest heights by +-10 %, and the pitch, yaw and pivot
-//! drift slowly (+-4 degrees, +-2 cm).
+//! to 3 ms (never the contact), lift and rest heights by +-10 %, the grip's speed at each
+//! contact by +-10 % and the loop's shape by +-0.1.
 
-use super::travel::{hermite, lerp3, max_slope, min_jerk_at};
-use super::{normalize, HandNote, Rng, LEFT};
+use super::grip::{self, GripHit, GripTrack};
+use super::travel::{hermite, max_slope};
+use super::{HandNote, Rng, LEFT};
 use crate::kit::Kit;
 use crate::midi::Zone;
-use crate::motion::{Pose, FPS, STICK_TIP_LOCAL};
-use std::f32::consts::PI;
+use crate::motion::{Pose, FPS};
+
+pub use super::grip::impact_grip;
 
 /// Lift at velocity 1 and at 127, metres.
 pub const LIFT_MIN_M: f32 = 0.03;
@@ -47,13 +49,6 @@ pub const REST_M: f32 = 0.04;
 pub const REBOUND: f32 = 0.45;
 /// Rebound duration, seconds.
 pub const REBOUND_S: f64 = 0.07;
-/// Stick pitch below the horizontal at impact, and how fast it rotates up with height.
-pub const PITCH_IMPACT_DEG: f32 = -20.0;
-pub const PITCH_PER_M_DEG: f32 = 160.0;
-/// The highest the stick is pitched up, degrees.
-pub const PITCH_MAX_DEG: f32 = 40.0;
-/// Shoulder pivots (x, y) the sticks are yawed from: left, right.
-pub const PIVOTS: [[f32; 2]; 2] = [[-0.30, -0.15], [0.30, -0.15]];
 /// Largest timing jitter of a knot that is not a contact, seconds.
 pub const JITTER_S: f64 = 0.003;
 
@@ -63,37 +58,10 @@ pub fn lift_height(velocity: u8) -> f32 {
     LIFT_MIN_M + (LIFT_MAX_M - LIFT_MIN_M) * v.powf(LIFT_EXPONENT)
 }
 
-/// The hand rotation (w, x, y, z) for a tip at `tip`, `h` metres above its surface:
-/// yaw from the hand's pivot toward the tip, pitch from [`PITCH_IMPACT_DEG`] up with `h`.
-pub fn hand_rotation(hand: usize, tip: [f32; 3], h: f32, drift: [f32; 3]) -> [f32; 4] {
-    let pivot = PIVOTS[hand];
-    let (dx, dy) = (tip[0] - pivot[0] - drift[2], tip[1] - pivot[1]);
-    let yaw = (-dx).atan2(dy) + drift[1];
-    let pitch = ((PITCH_IMPACT_DEG + PITCH_PER_M_DEG * h.max(0.0)).min(PITCH_MAX_DEG)).to_radians() + drift[0];
-    // rot = Rz(yaw) * Rx(pitch): the stick (+y) goes to (-sin yaw cos p, cos yaw cos p, sin p).
-    let (sy, cy) = ((yaw / 2.0).sin(), (yaw / 2.0).cos());
-    let (sp, cp) = ((pitch / 2.0).sin(), (pitch / 2.0).cos());
-    [cy * cp, cy * sp, sy * sp, sy * cp]
-}
-
-/// The grip for a tip and rotation: `tip - rot * STICK_TIP_LOCAL`.
-pub fn grip(tip: [f32; 3], rot: [f32; 4]) -> [f32; 3] {
-    let p = Pose { pos: [0.0; 3], rot }.apply(STICK_TIP_LOCAL);
-    [tip[0] - p[0], tip[1] - p[1], tip[2] - p[2]]
-}
-
-/// Where `hand`'s grip is when its tip strikes `point` (no drift): for the sticking's
-/// crossing rule.
-pub fn impact_grip(hand: usize, point: [f32; 3]) -> [f32; 3] {
-    grip(point, hand_rotation(hand, point, 0.0, [0.0; 3]))
-}
-
 /// One contact of a hand.
 #[derive(Debug, Clone, Copy)]
 struct Contact {
     t: f64,
-    point: [f32; 3],
-    normal: [f32; 3],
     /// Strike speed, and the rebound speed after it (m/s).
     speed: f32,
     rebound: f32,
@@ -102,13 +70,10 @@ struct Contact {
 /// A height knot: time, height, slope (m/s).
 type Knot = (f64, f32, f32);
 
-/// The stroke from one contact (or rest) to the next.
+/// The stick tip's height from one contact (or rest) to the next.
 #[derive(Debug, Clone)]
 struct Gap {
     knots: Vec<Knot>,
-    from: ([f32; 3], [f32; 3]),
-    to: ([f32; 3], [f32; 3]),
-    travel: (f64, f64),
 }
 
 impl Gap {
@@ -123,14 +88,6 @@ impl Gap {
         }
         let (a, b) = (k[i - 1], k[i]);
         hermite(a.0, a.1, a.2, b.0, b.1, b.2, t)
-    }
-
-    fn tip(&self, t: f64) -> ([f32; 3], f32) {
-        let s = min_jerk_at(self.travel.0, self.travel.1, t);
-        let base = lerp3(self.from.0, self.to.0, s);
-        let n = normalize(lerp3(self.from.1, self.to.1, s));
-        let h = self.height(t);
-        ([base[0] + n[0] * h, base[1] + n[1] * h, base[2] + n[2] * h], h)
     }
 }
 
@@ -156,62 +113,67 @@ fn rest_place(hand: usize, kit: &Kit) -> ([f32; 3], [f32; 3]) {
 
 /// The hand's pose in each of `frames` frames, striking each of `notes` (time order, distinct
 /// frames) at its frame.
-pub fn hand_track(hand: usize, notes: &[&HandNote], kit: &Kit, frames: usize, rng: &mut Rng) -> Vec<Pose> {
+pub fn hand_track(
+    hand: usize,
+    notes: &[&HandNote],
+    onsets: &[f64],
+    kit: &Kit,
+    frames: usize,
+    rng: &mut Rng,
+) -> Vec<Pose> {
+    let times: Vec<f64> = notes.iter().map(|n| n.frame as f64 / FPS).collect();
     let contacts: Vec<Contact> = notes
         .iter()
-        .map(|n| {
+        .zip(&times)
+        .map(|(n, &t)| {
             let speed = kit.strike.speed_for_velocity(n.velocity);
-            Contact { t: n.frame as f64 / FPS, point: n.point, normal: n.normal, speed, rebound: REBOUND * speed }
+            Contact { t, speed, rebound: REBOUND * speed }
         })
         .collect();
-    let rest = rest_place(hand, kit);
+    let hits: Vec<GripHit> = notes
+        .iter()
+        .zip(&contacts)
+        .map(|(n, c)| GripHit {
+            t: c.t,
+            point: n.point,
+            normal: n.normal,
+            speed: grip::GRIP_SPEED_FRACTION * c.speed * (1.0 + 0.1 * rng.sym()),
+        })
+        .collect();
+    let track = GripTrack::new(hand, hits, onsets, rest_place(hand, kit));
     let mut gaps = Vec::with_capacity(contacts.len() + 1);
     for i in 0..=contacts.len() {
         let prev = i.checked_sub(1).map(|j| contacts[j]);
         let next = contacts.get(i).copied();
         let velocity = notes.get(i).map_or(64, |n| n.velocity);
-        gaps.push(make_gap(prev, next, velocity, rest, rng));
+        gaps.push(make_gap(prev, next, velocity, rng));
     }
-    let drift = Drift::new(rng);
     (0..frames)
         .map(|f| {
             let t = f as f64 / FPS;
             let i = contacts.partition_point(|c| c.t <= t);
-            let (tip, h) = gaps[i].tip(t);
-            let rot = hand_rotation(hand, tip, h, drift.at(t));
-            Pose { pos: grip(tip, rot), rot }
+            let (pos, (base, n, yaw)) = track.at(t);
+            let pitch = grip::solve_pitch(pos, base, n, yaw, gaps[i].height(t));
+            Pose { pos, rot: grip::rotation(yaw, pitch) }
         })
         .collect()
 }
 
-/// The stroke between `prev` and `next` (either may be absent: before the first note the
-/// stick waits at rest over the first piece; after the last it rebounds and waits).
-fn make_gap(
-    prev: Option<Contact>,
-    next: Option<Contact>,
-    velocity: u8,
-    rest: ([f32; 3], [f32; 3]),
-    rng: &mut Rng,
-) -> Gap {
+/// The tip's heights between `prev` and `next` (either may be absent: before the first note
+/// the stick waits at rest; after the last it rebounds and waits).
+fn make_gap(prev: Option<Contact>, next: Option<Contact>, velocity: u8, rng: &mut Rng) -> Gap {
     let rest_h = REST_M * (1.0 + 0.1 * rng.sym());
     let lift = lift_height(velocity) * (1.0 + 0.1 * rng.sym());
-    match (prev, next) {
-        (None, None) => Gap { knots: vec![(0.0, rest_h, 0.0)], from: rest, to: rest, travel: (0.0, 0.0) },
+    let mut knots = match (prev, next) {
+        (None, None) => vec![(0.0, rest_h, 0.0)],
         (Some(a), None) => {
             let w = a.rebound.min(max_slope(rest_h, REBOUND_S));
-            let mut knots = vec![(a.t, 0.0, w), (a.t + REBOUND_S, rest_h, 0.0)];
-            jitter_knots(&mut knots, rng);
-            let here = (a.point, a.normal);
-            Gap { knots, from: here, to: here, travel: (a.t, a.t) }
+            vec![(a.t, 0.0, w), (a.t + REBOUND_S, rest_h, 0.0)]
         }
         (None, Some(b)) => {
             let (t_down, v) = downstroke(lift, b.speed, f64::INFINITY);
             let t_lift = lift_time(lift);
-            let mut knots =
-                vec![(b.t - t_down - t_lift, rest_h.min(lift), 0.0), (b.t - t_down, lift, 0.0), (b.t, 0.0, -v)];
-            jitter_knots(&mut knots, rng);
-            let here = (b.point, b.normal);
-            Gap { knots, from: here, to: here, travel: (b.t, b.t) }
+            vec![(b.t - t_down - t_lift, rest_h.min(lift), 0.0), (b.t - t_down, lift, 0.0), (b.t, 0.0, -v)]
         }
         (Some(a), Some(b)) => {
             let d = b.t - a.t;
@@ -219,31 +181,24 @@ fn make_gap(
             let rest_h = rest_h.min(lift);
             let (t_down, v) = downstroke(lift, b.speed, d);
             let t_lift = lift_time(lift);
-            let dist = super::norm([b.point[0] - a.point[0], b.point[1] - a.point[1], b.point[2] - a.point[2]]);
-            let mut knots;
-            let travel;
             if d >= REBOUND_S + t_lift + t_down {
                 let w = a.rebound.min(max_slope(rest_h, REBOUND_S));
-                knots = vec![
+                vec![
                     (a.t, 0.0, w),
                     (a.t + REBOUND_S, rest_h, 0.0),
                     (b.t - t_down - t_lift, rest_h, 0.0),
                     (b.t - t_down, lift, 0.0),
                     (b.t, 0.0, -v),
-                ];
-                let arrive = b.t - t_down;
-                let t_travel = (0.1 + 0.6 * dist as f64).min(0.4);
-                travel = ((arrive - t_travel).max(a.t + 0.5 * REBOUND_S), arrive);
+                ]
             } else {
                 let apex = b.t - t_down;
                 let w = a.rebound.min(max_slope(lift, apex - a.t));
-                knots = vec![(a.t, 0.0, w), (apex, lift, 0.0), (b.t, 0.0, -v)];
-                travel = (a.t, apex);
+                vec![(a.t, 0.0, w), (apex, lift, 0.0), (b.t, 0.0, -v)]
             }
-            jitter_knots(&mut knots, rng);
-            Gap { knots, from: (a.point, a.normal), to: (b.point, b.normal), travel }
         }
-    }
+    };
+    jitter_knots(&mut knots, rng);
+    Gap { knots }
 }
 
 /// Downstroke duration and arrival speed for a lift, a strike speed and the gap: about 1.5
@@ -257,28 +212,6 @@ fn downstroke(lift: f32, speed: f32, gap: f64) -> (f64, f32) {
 /// How long the lift from rest to the apex takes.
 fn lift_time(lift: f32) -> f64 {
     0.12 + 0.4 * lift as f64
-}
-
-/// Slow posture drift: pitch and yaw offsets (radians) and a pivot shift (metres), each a sum
-/// of two slow sines with seeded periods and phases.
-struct Drift {
-    waves: [[(f32, f32, f32); 2]; 3],
-}
-
-impl Drift {
-    fn new(rng: &mut Rng) -> Drift {
-        let amp = [4f32.to_radians(), 4f32.to_radians(), 0.02];
-        Drift {
-            waves: std::array::from_fn(|k| {
-                std::array::from_fn(|_| (amp[k] * 0.5, 4.0 + 5.0 * rng.unit(), 2.0 * PI * rng.unit()))
-            }),
-        }
-    }
-
-    fn at(&self, t: f64) -> [f32; 3] {
-        let t = t as f32;
-        self.waves.map(|w| w.iter().map(|(a, period, phase)| a * (2.0 * PI * t / period + phase).sin()).sum())
-    }
 }
 
 #[cfg(test)]
@@ -311,7 +244,7 @@ mod tests {
             })
             .collect();
         let refs: Vec<&HandNote> = notes.iter().collect();
-        let track = hand_track(RIGHT, &refs, &kit, 900, &mut Rng::new(3));
+        let track = hand_track(RIGHT, &refs, &[], &kit, 900, &mut Rng::new(3));
         for n in &notes {
             let tip = track[n.frame].stick_tip();
             assert!(dist(tip, n.point) < 1e-3, "frame {}: {tip:?} vs {:?}", n.frame, n.point);
@@ -325,7 +258,7 @@ mod tests {
         for v in [20u8, 60, 100, 127] {
             let n = [note(&kit, "snare", 0.5, 64), note(&kit, "snare", 1.5, v)];
             let refs: Vec<&HandNote> = n.iter().collect();
-            let track = hand_track(LEFT, &refs, &kit, 120, &mut Rng::new(1));
+            let track = hand_track(LEFT, &refs, &[], &kit, 120, &mut Rng::new(1));
             let heights: Vec<f32> = track
                 .iter()
                 .map(|p| super::super::dot(p.stick_tip(), n[0].normal) - super::super::dot(n[0].point, n[0].normal))
@@ -342,7 +275,7 @@ mod tests {
         let kit = Kit::builtin_default();
         let n = [note(&kit, "snare", 0.5, 64), note(&kit, "snare", 1.5, 127)];
         let refs: Vec<&HandNote> = n.iter().collect();
-        let track = hand_track(LEFT, &refs, &kit, 120, &mut Rng::new(1));
+        let track = hand_track(LEFT, &refs, &[], &kit, 120, &mut Rng::new(1));
         let at = track[90];
         assert!(at.stick_tip()[2] < at.pos[2], "stick points down at impact");
         let (tips, grips): (Vec<f32>, Vec<f32>) = track[31..90].iter().map(|p| (p.stick_tip()[2], p.pos[2])).unzip();

@@ -110,6 +110,31 @@ pub struct TrainReport {
     pub stopped_by_budget: bool,
     /// Validation loss of the initial weights (epoch 0).
     pub initial_val_loss: f32,
+    /// A digest of the validation targets the losses were measured on ([`data_digest`]).
+    #[serde(default)]
+    pub data_digest: u64,
+    /// Epochs after which training resumed on different material (a changed teacher): the
+    /// best checkpoint was measured afresh from there.
+    #[serde(default)]
+    pub data_changed_after: Vec<usize>,
+}
+
+/// A digest (FNV-1a over the ids and every target value's bits) of a set of examples, so a
+/// resumed run can tell that its material changed.
+pub fn data_digest(examples: &[Example]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes {
+            h = (h ^ b as u64).wrapping_mul(0x100_0000_01b3);
+        }
+    };
+    for e in examples {
+        eat(e.id.as_bytes());
+        for v in e.hands.iter().flatten() {
+            eat(&v.to_bits().to_le_bytes());
+        }
+    }
+    h
 }
 
 /// A small deterministic generator (SplitMix64) for crops and shuffles.
@@ -339,6 +364,14 @@ pub fn train(
         optim = optim.load(&paths.last_optim).map_err(|e| cerr(&paths.last_optim, e.to_string()))?;
         st.config = cfg.clone();
         st.stopped_by_budget = false;
+        let digest = data_digest(val);
+        if st.data_digest != digest {
+            // New material (the teacher changed): the old best loss was measured on other
+            // targets, so the best checkpoint starts afresh from these weights.
+            st.data_changed_after.push(st.epoch);
+            st.best_val_loss = f32::MAX;
+            st.data_digest = digest;
+        }
         st
     } else {
         let normalisation = Normalisation::fit(train);
@@ -354,6 +387,8 @@ pub fn train(
             config: cfg.clone(),
             stopped_by_budget: false,
             initial_val_loss: initial,
+            data_digest: data_digest(val),
+            data_changed_after: Vec::new(),
         }
     };
     let norm = state.normalisation.clone();
