@@ -204,3 +204,29 @@ fn smoke_training_lowers_validation_loss_and_resumes() {
     let mean_pose = vec![norm.mean; ex.roll.len()];
     assert!(err(&pred) < err(&mean_pose), "trained {} vs mean pose {}", err(&pred), err(&mean_pose));
 }
+
+#[test]
+fn chunked_inference_matches_the_sequential_pass() {
+    // Three minutes of roll through the shipped model: the parallel streams (each chunk
+    // after a warm-up from the zero state) against the one exact sequential pass.
+    let model = HandModel::load(std::path::Path::new("assets/hands/best.bpk")).unwrap();
+    let roll = random_roll(10_800, 0.03, 77);
+    let (streams, warmup) = drumsim::motion::hands::streams::plan(roll.len());
+    assert!(streams > 1, "three minutes run as several streams");
+    let exact = model.forward_streams(&roll, 1, 0);
+    let chunked = model.forward_normalised(&roll);
+    let worst = chunked
+        .iter()
+        .zip(&exact)
+        .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+        .fold(0.0f32, f32::max);
+    let scale = exact.iter().flatten().map(|v| v.abs()).fold(0.0f32, f32::max);
+    println!("{streams} streams, {warmup} frames of warm-up: max |chunked - sequential| = {worst:.2e} (outputs up to {scale:.2})");
+    assert!(scale > 0.5, "outputs too small to compare");
+    assert!(worst <= 1e-3, "chunked inference differs by {worst}");
+    // Without the warm-up the chunks' cold starts show.
+    let cold = model.forward_streams(&roll, streams, 0);
+    let cold_worst =
+        cold.iter().zip(&exact).flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs())).fold(0.0f32, f32::max);
+    assert!(cold_worst > 10.0 * worst.max(1e-6), "cold starts {cold_worst} vs warmed {worst}");
+}

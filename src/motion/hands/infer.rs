@@ -24,6 +24,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use super::streams::{plan, Forward, SimdNet};
 use super::weights::HandWeights;
 use super::{HandsError, Normalisation, ROLL_COLUMNS};
 use crate::midi::roll::PianoRoll;
@@ -134,6 +135,8 @@ impl Packed {
 #[derive(Debug, Clone)]
 pub struct HandModel {
     packed: Packed,
+    /// The layout for the AVX2 + FMA kernels, where the hidden size allows.
+    simd: Option<SimdNet>,
     norm: Normalisation,
     fma: bool,
 }
@@ -163,7 +166,7 @@ impl HandModel {
 
     /// A model from weights already in memory.
     pub fn new(weights: &HandWeights, norm: Normalisation) -> Self {
-        Self { packed: Packed::new(weights), norm, fma: fma_available() }
+        Self { packed: Packed::new(weights), simd: SimdNet::new(weights), norm, fma: fma_available() }
     }
 
     /// Hidden units per direction.
@@ -183,10 +186,27 @@ impl HandModel {
         self.predict(&x)
     }
 
-    /// The network's raw (normalised) output, what burn's `HandNet::forward` computes.
+    /// The network's raw (normalised) output, what burn's `HandNet::forward` computes
+    /// (long sequences as parallel streams, see [`super::streams`]).
     pub fn forward_normalised(&self, roll: &[[f32; ROLL_COLUMNS]]) -> Vec<[f32; HAND_VALUES]> {
+        let (streams, warmup) = plan(roll.len());
+        self.forward_streams(roll, streams, warmup)
+    }
+
+    /// [`Self::forward_normalised`] with a chosen number of streams and warm-up (one stream
+    /// is the exact sequential pass).
+    pub fn forward_streams(
+        &self,
+        roll: &[[f32; ROLL_COLUMNS]],
+        streams: usize,
+        warmup: usize,
+    ) -> Vec<[f32; HAND_VALUES]> {
         if roll.is_empty() {
             return Vec::new();
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(net), Some(v3)) = (&self.simd, pulp::x86::V3::try_new()) {
+            return <pulp::x86::V3 as pulp::Simd>::vectorize(v3, Forward { net, roll, streams, warmup });
         }
         let p = &self.packed;
         if self.fma {

@@ -11,7 +11,9 @@
 //!   core; [`HandModel`] is what the rest of drumsim calls.
 
 pub mod infer;
+pub mod kernels;
 pub mod model;
+pub mod streams;
 pub mod train;
 pub mod validate;
 pub mod weights;
