@@ -240,7 +240,7 @@ impl GripTrack {
         let half: Vec<f64> = (0..n)
             .map(|i| {
                 let before = i.checked_sub(1).filter(|&g| !short(g)).map_or(f64::INFINITY, |g| gaps[g]);
-                let after = (i + 1 < n && !short(i)).then(|| gaps[i]).unwrap_or(f64::INFINITY);
+                let after = if i + 1 < n && !short(i) { gaps[i] } else { f64::INFINITY };
                 let beside = i.checked_sub(1).map_or(f64::INFINITY, matched).min(if i + 1 < n {
                     matched(i)
                 } else {

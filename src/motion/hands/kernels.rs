@@ -13,10 +13,6 @@ use pulp::Simd;
 
 /// Output columns per register tile (two AVX registers).
 pub const TILE: usize = 16;
-/// Rows per register tile of [`gemm`].
-const GEMM_ROWS: usize = 6;
-/// Rows per cache block of [`gemm`].
-const GEMM_BLOCK: usize = 96;
 
 /// A `[k][n]` row-major matrix packed as `[n_pad / TILE][k][TILE]` (zero-padded columns).
 #[derive(Debug, Clone)]
@@ -38,35 +34,33 @@ impl Tiles {
         Self { k, n_pad, data }
     }
 
-    fn tile(&self, t: usize) -> &[f32] {
+    pub fn tile(&self, t: usize) -> &[f32] {
         &self.data[t * self.k * TILE..][..self.k * TILE]
     }
 }
 
-/// `out[at[i]..][..16] = init[i] + xs[i] . W_tile` for `R` rows; `w` is one packed tile
-/// (`[k][16]`), `xs[i]` has `k` values, `init[i]` 16.
+/// `out[at[i]..][..16] = init[i] + x_i . W_tile` for `R` rows, where `xt[kk][i]` is row
+/// `i`'s `kk`-th value (the rows interleaved, so the loop has no bounds checks); `w` is one
+/// packed tile (`[k][16]`), `init[i]` has 16 values.
 #[inline(always)]
 pub fn micro<S: Simd, const R: usize>(
     simd: S,
-    xs: [&[f32]; R],
+    xt: &[[f32; R]],
     w: &[f32],
     init: [&[f32]; R],
     out: &mut [f32],
     at: [usize; R],
 ) {
     debug_assert_eq!(S::F32_LANES, 8);
-    let k = w.len() / TILE;
-    let xs = xs.map(|x| &x[..k]);
     let (wv, _) = S::as_simd_f32s(w);
-    let wv = &wv[..2 * k];
     let mut acc: [[S::f32s; 2]; R] = std::array::from_fn(|i| {
         let (v, _) = S::as_simd_f32s(&init[i][..TILE]);
         [v[0], v[1]]
     });
-    for kk in 0..k {
-        let (w0, w1) = (wv[2 * kk], wv[2 * kk + 1]);
+    for (w2, x) in wv.chunks_exact(2).zip(xt) {
+        let (w0, w1) = (w2[0], w2[1]);
         for i in 0..R {
-            let xb = simd.splat_f32s(xs[i][kk]);
+            let xb = simd.splat_f32s(x[i]);
             acc[i][0] = simd.mul_add_e_f32s(xb, w0, acc[i][0]);
             acc[i][1] = simd.mul_add_e_f32s(xb, w1, acc[i][1]);
         }
@@ -78,52 +72,86 @@ pub fn micro<S: Simd, const R: usize>(
     }
 }
 
-/// `out[r] = bias + x[r] W` for every row of `x` (`[rows][k]`); `out` is `[rows][n_pad]`.
+/// Interleave `R` rows of `k` values (`row(i)`) into `xt` (`[k][R]`).
 #[inline(always)]
-pub fn gemm<S: Simd>(simd: S, x: &[f32], w: &Tiles, bias: &[f32], out: &mut [f32]) {
+pub fn interleave<'a, const R: usize>(k: usize, row: impl Fn(usize) -> &'a [f32], xt: &mut Vec<[f32; R]>) {
+    xt.clear();
+    xt.resize(k, [0.0; R]);
+    for i in 0..R {
+        for (x, &v) in xt.iter_mut().zip(&row(i)[..k]) {
+            x[i] = v;
+        }
+    }
+}
+
+/// `out[r] = bias + x[r] W` for every row of `x` (`[rows][k]`, at most a cache block's
+/// worth); `out` is `[rows][n_pad]`. Six rows at a time (twelve accumulators hide the FMA
+/// latency), every row group per weight tile so each tile is read once.
+#[inline(always)]
+pub fn gemm<S: Simd>(simd: S, x: &[f32], w: &Tiles, bias: &[f32], out: &mut [f32], xt: &mut Vec<[f32; GEMM_ROWS]>) {
     let (k, np) = (w.k, w.n_pad);
     let rows = x.len() / k;
+    let groups = rows / GEMM_ROWS;
     let row = |r: usize| &x[r * k..][..k];
-    for r0 in (0..rows).step_by(GEMM_BLOCK) {
-        let r1 = (r0 + GEMM_BLOCK).min(rows);
-        for t in 0..np / TILE {
-            let (wt, b) = (w.tile(t), &bias[t * TILE..][..TILE]);
-            let mut r = r0;
-            while r + GEMM_ROWS <= r1 {
-                let xs: [&[f32]; GEMM_ROWS] = std::array::from_fn(|i| row(r + i));
-                let at: [usize; GEMM_ROWS] = std::array::from_fn(|i| (r + i) * np + t * TILE);
-                micro::<S, GEMM_ROWS>(simd, xs, wt, [b; GEMM_ROWS], out, at);
-                r += GEMM_ROWS;
+    xt.clear();
+    xt.resize(groups * k, [0.0; GEMM_ROWS]);
+    for (g, chunk) in xt.chunks_exact_mut(k).enumerate() {
+        for i in 0..GEMM_ROWS {
+            for (c, &v) in chunk.iter_mut().zip(row(g * GEMM_ROWS + i)) {
+                c[i] = v;
             }
-            for r in r..r1 {
-                micro::<S, 1>(simd, [row(r)], wt, [b], out, [r * np + t * TILE]);
-            }
+        }
+    }
+    for t in 0..np / TILE {
+        let wt = w.tile(t);
+        for (g, chunk) in xt.chunks_exact(k).enumerate() {
+            let at: [usize; GEMM_ROWS] = std::array::from_fn(|i| (g * GEMM_ROWS + i) * np + t * TILE);
+            micro::<S, GEMM_ROWS>(simd, chunk, wt, [&bias[t * TILE..]; GEMM_ROWS], out, at);
+        }
+        for r in groups * GEMM_ROWS..rows {
+            let (x1, _) = row(r).as_chunks::<1>();
+            micro::<S, 1>(simd, x1, wt, [&bias[t * TILE..]], out, [r * np + t * TILE]);
         }
     }
 }
 
 /// `gates[s] = init[s] + h[s] W_hh` for each stream `s` (`h` is `[streams][H]`, `gates`
-/// `[streams][n_pad]`), four streams at a time so each weight tile is reused from L1.
+/// `[streams][n_pad]`), [`REC_ROWS`] streams at a time so each weight tile, read from L2,
+/// serves them all from L1 (and twelve accumulators hide the FMA latency).
 #[inline(always)]
-pub fn recurrent<S: Simd>(simd: S, h: &[f32], w: &Tiles, init: &[&[f32]], gates: &mut [f32]) {
+pub fn recurrent<S: Simd>(
+    simd: S,
+    h: &[f32],
+    w: &Tiles,
+    init: &[&[f32]],
+    gates: &mut [f32],
+    xt: &mut Vec<[f32; REC_ROWS]>,
+) {
     let (k, np) = (w.k, w.n_pad);
     let streams = init.len();
     let hrow = |s: usize| &h[s * k..][..k];
-    for t in 0..np / TILE {
-        let wt = w.tile(t);
-        let mut s = 0;
-        while s + 4 <= streams {
-            let xs: [&[f32]; 4] = std::array::from_fn(|i| hrow(s + i));
-            let ini: [&[f32]; 4] = std::array::from_fn(|i| &init[s + i][t * TILE..]);
-            let at: [usize; 4] = std::array::from_fn(|i| (s + i) * np + t * TILE);
-            micro::<S, 4>(simd, xs, wt, ini, gates, at);
-            s += 4;
+    let mut s = 0;
+    while s + REC_ROWS <= streams {
+        interleave::<REC_ROWS>(k, |i| hrow(s + i), xt);
+        for t in 0..np / TILE {
+            let ini: [&[f32]; REC_ROWS] = std::array::from_fn(|i| &init[s + i][t * TILE..]);
+            let at: [usize; REC_ROWS] = std::array::from_fn(|i| (s + i) * np + t * TILE);
+            micro::<S, REC_ROWS>(simd, xt, w.tile(t), ini, gates, at);
         }
-        for s in s..streams {
-            micro::<S, 1>(simd, [hrow(s)], wt, [&init[s][t * TILE..]], gates, [s * np + t * TILE]);
+        s += REC_ROWS;
+    }
+    for (s, ini) in init.iter().enumerate().skip(s) {
+        let (x1, _) = hrow(s).as_chunks::<1>();
+        for t in 0..np / TILE {
+            micro::<S, 1>(simd, x1, w.tile(t), [&ini[t * TILE..]], gates, [s * np + t * TILE]);
         }
     }
 }
+
+/// Streams per register tile of [`recurrent`].
+pub const REC_ROWS: usize = 6;
+/// Rows per register tile of [`gemm`].
+pub const GEMM_ROWS: usize = 6;
 
 /// `e^x` on a vector: the scalar path's Cephes range reduction and polynomial, `2^n` built
 /// in the exponent bits.
@@ -143,14 +171,8 @@ fn exp<S: Simd>(simd: S, x: S::f32s) -> S::f32s {
     let y = simd.add_f32s(simd.mul_add_e_f32s(simd.mul_f32s(p, r), r, r), c(1.0));
     let bits = simd.transmute_u32s_f32s(t);
     let e = simd.sub_u32s(bits, simd.splat_u32s(MAGIC.to_bits() - 127));
-    let scale = simd.transmute_f32s_u32s(simd.mul_u32s(e, simd.splat_u32s(1 << 23)));
+    let scale = simd.transmute_f32s_u32s(simd.wrapping_dyn_shl_u32s(e, simd.splat_u32s(23)));
     simd.mul_f32s(y, scale)
-}
-
-#[inline(always)]
-fn sigmoid<S: Simd>(simd: S, x: S::f32s) -> S::f32s {
-    let one = simd.splat_f32s(1.0);
-    simd.div_f32s(one, simd.add_f32s(one, exp(simd, simd.neg_f32s(x))))
 }
 
 #[inline(always)]
@@ -162,6 +184,12 @@ fn tanh<S: Simd>(simd: S, x: S::f32s) -> S::f32s {
 
 /// One LSTM cell update: `gates` is `[i | f | g | o]` (`H` each, `H` a multiple of 8),
 /// `c = sigmoid(f) c + sigmoid(i) tanh(g)`, `h = sigmoid(o) tanh(c)`.
+///
+/// Divisions are the slow part, so the three sigmoids and `tanh(g)` share one: with
+/// `a = 1 + e^-i`, `b = 1 + e^-f`, `d = 1 + e^-o`, `q = e^2g + 1` and `r = 1 / (a b d q)`,
+/// `sigmoid(i) = b d q r` and so on, `tanh(g) = (e^2g - 1) a b d r`. The arguments are
+/// clamped to +-20 (+-10 for `tanh`), where the functions are within 2e-9 of their limits,
+/// so the product stays below 1e35.
 #[inline(always)]
 pub fn lstm_update<S: Simd>(simd: S, gates: &[f32], h: &mut [f32], c: &mut [f32]) {
     let n = h.len();
@@ -169,13 +197,23 @@ pub fn lstm_update<S: Simd>(simd: S, gates: &[f32], h: &mut [f32], c: &mut [f32]
     let (hv, _) = S::as_mut_simd_f32s(h);
     let (cv, _) = S::as_mut_simd_f32s(c);
     let m = hv.len();
+    let one = simd.splat_f32s(1.0);
+    let clamp = |x: S::f32s, l: f32| simd.min_f32s(simd.max_f32s(x, simd.splat_f32s(-l)), simd.splat_f32s(l));
     for j in 0..m {
-        let i = sigmoid(simd, gv[j]);
-        let f = sigmoid(simd, gv[m + j]);
-        let g = tanh(simd, gv[2 * m + j]);
-        let o = sigmoid(simd, gv[3 * m + j]);
-        let cn = simd.mul_add_e_f32s(f, cv[j], simd.mul_f32s(i, g));
+        let a = simd.add_f32s(one, exp(simd, simd.neg_f32s(clamp(gv[j], 20.0))));
+        let b = simd.add_f32s(one, exp(simd, simd.neg_f32s(clamp(gv[m + j], 20.0))));
+        let g = clamp(gv[2 * m + j], 10.0);
+        let e2g = exp(simd, simd.add_f32s(g, g));
+        let q = simd.add_f32s(e2g, one);
+        let d = simd.add_f32s(one, exp(simd, simd.neg_f32s(clamp(gv[3 * m + j], 20.0))));
+        let (ab, dq) = (simd.mul_f32s(a, b), simd.mul_f32s(d, q));
+        let r = simd.div_f32s(one, simd.mul_f32s(ab, dq));
+        let si = simd.mul_f32s(simd.mul_f32s(b, dq), r);
+        let sf = simd.mul_f32s(simd.mul_f32s(a, dq), r);
+        let so = simd.mul_f32s(simd.mul_f32s(ab, q), r);
+        let tg = simd.mul_f32s(simd.mul_f32s(simd.sub_f32s(e2g, one), simd.mul_f32s(ab, d)), r);
+        let cn = simd.mul_add_e_f32s(sf, cv[j], simd.mul_f32s(si, tg));
         cv[j] = cn;
-        hv[j] = simd.mul_f32s(o, tanh(simd, cn));
+        hv[j] = simd.mul_f32s(so, tanh(simd, cn));
     }
 }

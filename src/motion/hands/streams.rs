@@ -16,32 +16,33 @@
 
 use pulp::{Simd, WithSimd};
 
-use super::kernels::{gemm, lstm_update, recurrent, Tiles, TILE};
+use super::kernels::{gemm, lstm_update, micro, recurrent, Tiles, GEMM_ROWS, REC_ROWS, TILE};
 use super::weights::HandWeights;
 use super::ROLL_COLUMNS;
 use crate::motion::HAND_VALUES;
 
 /// Most streams a direction runs side by side.
-pub const MAX_STREAMS: usize = 8;
+pub const MAX_STREAMS: usize = 6;
 /// Frames of warm-up before a chunk that does not start at the sequence's end.
 pub const WARMUP: usize = 120;
 /// The shortest chunk worth a stream of its own.
 pub const MIN_CHUNK: usize = 1024;
 
-/// The network laid out for the SIMD kernels.
+/// The network laid out for the SIMD kernels, per direction.
 #[derive(Debug, Clone)]
 pub struct SimdNet {
     hidden: usize,
-    /// Layer 1, both directions: `[16][8H]` and `[8H]` (forward gates, then reverse).
-    l1_w: Vec<f32>,
-    l1_b: Vec<f32>,
+    /// Layer 1 input weights `[16][4H]` and biases `[4H]`, per direction.
+    l1_w: [Vec<f32>; 2],
+    l1_b: [Vec<f32>; 2],
     /// Recurrent weights `[layer][direction]`, `[H][4H]` packed.
     rec: [[Tiles; 2]; 2],
-    /// Layer-2 input projection `[2H][8H]` and its bias.
-    l2: Tiles,
-    l2_b: Vec<f32>,
-    /// Output layer `[2H][14]` (padded to 16) and its bias.
-    head: Tiles,
+    /// Layer-2 input projection `[2H][4H]` packed, and bias, per direction.
+    l2: [Tiles; 2],
+    l2_b: [Vec<f32>; 2],
+    /// Output layer: the rows `[H][14]` (padded to 16) that each direction's states meet,
+    /// and the bias.
+    head: [Tiles; 2],
     head_b: Vec<f32>,
 }
 
@@ -49,26 +50,25 @@ impl SimdNet {
     /// The layout, where the kernels can take the network (hidden a multiple of 8).
     pub fn new(w: &HandWeights) -> Option<Self> {
         let h = w.hidden;
-        if h == 0 || h % 8 != 0 {
+        if h == 0 || !h.is_multiple_of(8) {
             return None;
         }
         let g4 = 4 * h;
-        let cat = |a: &[f32], b: &[f32], rows: usize| -> Vec<f32> {
-            (0..rows).flat_map(|r| a[r * g4..][..g4].iter().chain(&b[r * g4..][..g4]).copied()).collect()
-        };
-        let [l1f, l1r] = &w.layers[0];
-        let [l2f, l2r] = &w.layers[1];
-        let rec = |l: &super::weights::DirWeights| Tiles::new(&l.w_hh, h, g4);
+        let [l1, l2] = &w.layers;
         let mut head_b = w.head_b.to_vec();
         head_b.resize(HAND_VALUES.div_ceil(TILE) * TILE, 0.0);
+        let head = |d: usize| Tiles::new(&w.head_w[d * h * HAND_VALUES..][..h * HAND_VALUES], h, HAND_VALUES);
         Some(Self {
             hidden: h,
-            l1_w: cat(&l1f.w_ih, &l1r.w_ih, ROLL_COLUMNS),
-            l1_b: cat(&l1f.bias, &l1r.bias, 1),
-            rec: [[rec(l1f), rec(l1r)], [rec(l2f), rec(l2r)]],
-            l2: Tiles::new(&cat(&l2f.w_ih, &l2r.w_ih, 2 * h), 2 * h, 8 * h),
-            l2_b: cat(&l2f.bias, &l2r.bias, 1),
-            head: Tiles::new(&w.head_w, 2 * h, HAND_VALUES),
+            l1_w: [l1[0].w_ih.clone(), l1[1].w_ih.clone()],
+            l1_b: [l1[0].bias.clone(), l1[1].bias.clone()],
+            rec: [
+                [Tiles::new(&l1[0].w_hh, h, g4), Tiles::new(&l1[1].w_hh, h, g4)],
+                [Tiles::new(&l2[0].w_hh, h, g4), Tiles::new(&l2[1].w_hh, h, g4)],
+            ],
+            l2: [Tiles::new(&l2[0].w_ih, 2 * h, g4), Tiles::new(&l2[1].w_ih, 2 * h, g4)],
+            l2_b: [l2[0].bias.clone(), l2[1].bias.clone()],
+            head: [head(0), head(1)],
             head_b,
         })
     }
@@ -95,52 +95,153 @@ impl WithSimd for Forward<'_> {
     fn with_simd<S: Simd>(self, simd: S) -> Self::Output {
         let (p, roll) = (self.net, self.roll);
         let (h, t) = (p.hidden, roll.len());
-        let g8 = 8 * h;
-        let mut pre = vec![0.0f32; t * g8];
-        for (x, row) in roll.iter().zip(pre.chunks_exact_mut(g8)) {
-            row.copy_from_slice(&p.l1_b);
-            for (n, &v) in x.iter().enumerate() {
-                if v != 0.0 {
-                    for (r, w) in row.iter_mut().zip(&p.l1_w[n * g8..][..g8]) {
-                        *r += v * *w;
-                    }
-                }
-            }
-        }
-        let mut z = vec![0.0f32; t * 2 * h];
         let (streams, warmup) = (self.streams.clamp(1, MAX_STREAMS), self.warmup);
-        for layer in 0..2 {
-            if layer == 1 {
-                gemm(simd, &z, &p.l2, &p.l2_b, &mut pre);
-            }
-            for (d, rec) in p.rec[layer].iter().enumerate() {
-                direction(simd, rec, &pre, d, t, streams, warmup, &mut z);
-            }
+        // Layer 1's pre-activations come straight from the sparse roll; its states go to z1.
+        let mut z1 = vec![0.0f32; t * 2 * h];
+        for d in 0..2 {
+            let mut src = RollSource { roll, w: &p.l1_w[d], b: &p.l1_b[d] };
+            let mut sink = StateSink { z: &mut z1, offset: d * h, stride: 2 * h };
+            direction(simd, &p.rec[0][d], &mut src, &mut sink, d, t, streams, warmup);
         }
-        let np = p.head.n_pad;
-        let mut out = vec![0.0f32; t * np];
-        gemm(simd, &z, &p.head, &p.head_b, &mut out);
+        // Layer 2's pre-activations are made block by block from z1 as each stream reaches
+        // them; its states go straight into the output layer.
+        let np = p.head_b.len();
+        let mut out: Vec<f32> = (0..t).flat_map(|_| p.head_b.iter().copied()).collect();
+        for d in 0..2 {
+            let mut src = BlockSource::new(&z1, &p.l2[d], &p.l2_b[d], streams, d == 1);
+            let mut sink = HeadSink { out: &mut out, w: &p.head[d] };
+            direction(simd, &p.rec[1][d], &mut src, &mut sink, d, t, streams, warmup);
+        }
         out.chunks_exact(np).map(|r| std::array::from_fn(|c| r[c])).collect()
     }
 }
 
+/// Where a direction's gate pre-activations come from.
+trait Source {
+    /// Write frame `f`'s pre-activations (`4H`) for stream `s` into `row`.
+    fn fill<S: Simd>(&mut self, simd: S, s: usize, f: usize, row: &mut [f32]);
+}
+
+/// Layer 1: bias plus the input weight rows of the notes on in the frame.
+struct RollSource<'a> {
+    roll: &'a [[f32; ROLL_COLUMNS]],
+    w: &'a [f32],
+    b: &'a [f32],
+}
+
+impl Source for RollSource<'_> {
+    #[inline(always)]
+    fn fill<S: Simd>(&mut self, simd: S, _s: usize, f: usize, row: &mut [f32]) {
+        row.copy_from_slice(self.b);
+        let g4 = row.len();
+        for (n, &v) in self.roll[f].iter().enumerate() {
+            if v != 0.0 {
+                let (rv, _) = S::as_mut_simd_f32s(row);
+                let (wv, _) = S::as_simd_f32s(&self.w[n * g4..][..g4]);
+                let vv = simd.splat_f32s(v);
+                for (r, &w) in rv.iter_mut().zip(wv) {
+                    *r = simd.mul_add_e_f32s(vv, w, *r);
+                }
+            }
+        }
+    }
+}
+
+/// Frames per block of layer-2 pre-activations a stream computes at once.
+const BLOCK: usize = 48;
+
+/// Layer 2: `bias + z1 W_ih`, computed for [`BLOCK`] frames of a stream at a time (ahead of
+/// it in its direction), so no `[t][4H]` array is ever made.
+struct BlockSource<'a> {
+    z1: &'a [f32],
+    w: &'a Tiles,
+    b: &'a [f32],
+    reverse: bool,
+    /// Per stream: `[BLOCK][4H]` and the first frame the block holds.
+    blocks: Vec<f32>,
+    first: Vec<Option<usize>>,
+    xt: Vec<[f32; GEMM_ROWS]>,
+}
+
+impl<'a> BlockSource<'a> {
+    fn new(z1: &'a [f32], w: &'a Tiles, b: &'a [f32], streams: usize, reverse: bool) -> Self {
+        let blocks = vec![0.0; streams * BLOCK * w.n_pad];
+        Self { z1, w, b, reverse, blocks, first: vec![None; streams], xt: Vec::with_capacity(w.k) }
+    }
+}
+
+impl Source for BlockSource<'_> {
+    #[inline(always)]
+    fn fill<S: Simd>(&mut self, simd: S, s: usize, f: usize, row: &mut [f32]) {
+        let (k, g4) = (self.w.k, self.w.n_pad);
+        let t = self.z1.len() / k;
+        let block = &mut self.blocks[s * BLOCK * g4..][..BLOCK * g4];
+        let held = self.first[s].is_some_and(|a| (a..a + BLOCK).contains(&f));
+        if !held {
+            let a = if self.reverse { (f + 1).saturating_sub(BLOCK) } else { f };
+            let b = (a + BLOCK).min(t);
+            gemm(simd, &self.z1[a * k..b * k], self.w, self.b, block, &mut self.xt);
+            self.first[s] = Some(a);
+        }
+        let a = self.first[s].unwrap_or(f);
+        row.copy_from_slice(&block[(f - a) * g4..][..g4]);
+    }
+}
+
+/// Where a direction's hidden states go.
+trait Sink {
+    fn emit<S: Simd>(&mut self, simd: S, f: usize, h: &[f32]);
+}
+
+/// Into `z[f][offset..]`.
+struct StateSink<'a> {
+    z: &'a mut [f32],
+    offset: usize,
+    stride: usize,
+}
+
+impl Sink for StateSink<'_> {
+    #[inline(always)]
+    fn emit<S: Simd>(&mut self, _simd: S, f: usize, h: &[f32]) {
+        self.z[f * self.stride + self.offset..][..h.len()].copy_from_slice(h);
+    }
+}
+
+/// Into the output layer: `out[f] += h W_head` (this direction's rows).
+struct HeadSink<'a> {
+    out: &'a mut [f32],
+    w: &'a Tiles,
+}
+
+impl Sink for HeadSink<'_> {
+    #[inline(always)]
+    fn emit<S: Simd>(&mut self, simd: S, f: usize, h: &[f32]) {
+        let np = self.w.n_pad;
+        for tile in 0..np / TILE {
+            let mut acc = [0.0f32; TILE];
+            acc.copy_from_slice(&self.out[f * np + tile * TILE..][..TILE]);
+            let (h1, _) = h.as_chunks::<1>();
+            micro::<S, 1>(simd, h1, self.w.tile(tile), [&acc], self.out, [f * np + tile * TILE]);
+        }
+    }
+}
+
 /// One direction (`d` 0 forward, 1 reverse) of an LSTM layer over `t` frames as `streams`
-/// chunks: gate pre-activations from `pre` (`[t][8H]`, this direction's at `4H d`), hidden
-/// states into `z` (`[t][2H]`, at `H d`).
+/// chunks: gate pre-activations from `src`, hidden states of owned frames to `sink`.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn direction<S: Simd>(
+fn direction<S: Simd, Src: Source, Snk: Sink>(
     simd: S,
     rec: &Tiles,
-    pre: &[f32],
+    src: &mut Src,
+    sink: &mut Snk,
     d: usize,
     t: usize,
     streams: usize,
     warmup: usize,
-    z: &mut [f32],
 ) {
     let h = rec.k;
-    let (g4, g8) = (4 * h, 8 * h);
+    let g4 = 4 * h;
     let chunk = t.div_ceil(streams);
     // Per stream: first frame it owns, one past its last, and its warm-up lead.
     let spans: Vec<(usize, usize, usize)> = (0..streams)
@@ -151,22 +252,28 @@ fn direction<S: Simd>(
         })
         .collect();
     let steps = spans.iter().map(|&(a, b, lead)| b - a + lead).max().unwrap_or(0);
-    let zero = vec![0.0f32; g4];
     let (mut hs, mut cs) = (vec![0.0f32; streams * h], vec![0.0f32; streams * h]);
     let mut gates = vec![0.0f32; streams * g4];
+    let mut pre = vec![0.0f32; streams * g4];
     let mut frames = vec![None; streams];
-    let mut init: Vec<&[f32]> = vec![&zero; streams];
+    let mut xt: Vec<[f32; REC_ROWS]> = Vec::with_capacity(h);
     for j in 0..steps {
         for (s, &(a, b, lead)) in spans.iter().enumerate() {
             frames[s] = (j < b - a + lead).then(|| if d == 0 { a - lead + j } else { b - 1 + lead - j });
-            init[s] = frames[s].map_or(&zero[..], |f| &pre[f * g8 + d * g4..][..g4]);
+            let row = &mut pre[s * g4..][..g4];
+            match frames[s] {
+                Some(f) => src.fill(simd, s, f, row),
+                None => row.fill(0.0),
+            }
         }
-        recurrent(simd, &hs, rec, &init, &mut gates);
+        let init: [&[f32]; MAX_STREAMS] =
+            std::array::from_fn(|s| if s < streams { &pre[s * g4..][..g4] } else { &[][..] });
+        recurrent(simd, &hs, rec, &init[..streams], &mut gates, &mut xt);
         for (s, &(a, b, _)) in spans.iter().enumerate() {
             let Some(f) = frames[s] else { continue };
             lstm_update(simd, &gates[s * g4..][..g4], &mut hs[s * h..][..h], &mut cs[s * h..][..h]);
             if (a..b).contains(&f) {
-                z[f * 2 * h + d * h..][..h].copy_from_slice(&hs[s * h..][..h]);
+                sink.emit(simd, f, &hs[s * h..][..h]);
             }
         }
     }

@@ -1,5 +1,6 @@
 //! Each hand's corrected trajectory: the predicted tip, moved onto its notes' strike
-//! points by a smooth offset, with a stroke along each surface's normal around each note.
+//! points by a smooth offset, and drawn onto a stroke along each surface's normal through
+//! the strike point around each note.
 
 use super::{Assignment, HandNote};
 use crate::motion::track::{Pose, STICK_TIP_LOCAL};
@@ -160,10 +161,13 @@ impl PlannedHands {
             (Some(a), None) => a,
             (None, _) => 0,
         };
+        // Within the note's window the tip is drawn onto the stroke line, the normal through
+        // the strike point (fully at the hit, fading out with the window): the predicted tip
+        // may slide across the surface as the stick rebounds.
         let n = &ns[k].0;
         let (h, w) = self.stroke(hand, k, t);
-        let h1 = dot(sub(p, n.point), n.normal);
-        add(p, scale(n.normal, w * (h - h1)))
+        let on_line = add(n.point, scale(n.normal, h));
+        add(p, scale(sub(on_line, p), w))
     }
 
     /// The planned hand pose at `t`: the predicted rotation, the grip moved with the tip.
