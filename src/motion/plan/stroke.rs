@@ -46,9 +46,6 @@ fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 fn scale(a: [f32; 3], k: f32) -> [f32; 3] {
     [a[0] * k, a[1] * k, a[2] * k]
 }
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
 /// Minimum-jerk blend 0 -> 1.
 fn mj(u: f64) -> f32 {
     let u = u.clamp(0.0, 1.0);
