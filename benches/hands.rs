@@ -1,6 +1,7 @@
 //! Hand-model inference over 3 minutes of roll (10,800 frames at 60 fps), hidden 128: our
-//! forward pass (`hand_infer/ours`) and burn's (`hand_infer/burn`) in the same process, so
-//! the ratio holds on a noisy machine. Run: `cargo bench --bench hands`.
+//! forward pass (`hand_infer/ours`, and `ours_one_stream`, the exact sequential pass) and
+//! burn's (`hand_infer/burn`) in the same process, so the ratio holds on a noisy machine.
+//! Run: `cargo bench --bench hands`.
 
 use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
@@ -40,6 +41,8 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("hand_infer");
     g.sample_size(10);
     g.bench_function("ours", |b| b.iter(|| model.predict(std::hint::black_box(&roll))));
+    // The exact sequential pass (one stream), for the streams' share of the speed-up.
+    g.bench_function("ours_one_stream", |b| b.iter(|| model.forward_streams(std::hint::black_box(&roll), 1, 0)));
     let flat: Vec<f32> = roll.iter().flatten().copied().collect();
     g.bench_function("burn", |b| {
         b.iter(|| {
