@@ -164,8 +164,8 @@ fn exp<S: Simd>(simd: S, x: S::f32s) -> S::f32s {
     let n = simd.sub_f32s(t, c(MAGIC));
     let r = simd.mul_add_e_f32s(n, c(-0.693_359_4), x);
     let r = simd.mul_add_e_f32s(n, c(2.121_944_4e-4), r);
-    let mut p = c(1.987_569_1e-4);
-    for k in [1.398_199_9e-3, 8.333_452e-3, 4.166_579_6e-2, 1.666_666_5e-1, 5e-1] {
+    let mut p = c(8.333_452e-3);
+    for k in [4.166_579_6e-2, 1.666_666_5e-1, 5e-1] {
         p = simd.mul_add_e_f32s(p, r, c(k));
     }
     let y = simd.add_f32s(simd.mul_add_e_f32s(simd.mul_f32s(p, r), r, r), c(1.0));
