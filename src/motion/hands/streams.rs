@@ -338,11 +338,11 @@ mod tests {
             roll[f][2] = 1.0;
         }
         let active = playing(&roll);
-        assert!(active[495] && active[529] && !active[531] && !active[899]);
+        assert!(active[495] && active[520] && !active[521] && !active[899]);
         let edge = 900;
         let lead = lead_over((0..edge).rev().map(|f| active[f]), 160);
-        // Back over the 370 silent frames and then 160 playing ones.
-        assert_eq!(lead, (edge - 530) + 160);
+        // Back over the 379 silent frames and then 160 playing ones.
+        assert_eq!(lead, (edge - 521) + 160);
         // No playing at all: back to the start (the exact zero state).
         assert_eq!(lead_over((0..100).rev().map(|_| false), 160), 100);
     }
