@@ -153,13 +153,18 @@ pub const REC_ROWS: usize = 6;
 /// Rows per register tile of [`gemm`].
 pub const GEMM_ROWS: usize = 6;
 
-/// `e^x` on a vector: the scalar path's Cephes range reduction and polynomial, `2^n` built
-/// in the exponent bits.
+/// `e^x` on a vector: the scalar path's Cephes range reduction, a degree-5 polynomial (about
+/// 3e-6 relative error), `2^n` built in the exponent bits.
 #[inline(always)]
 fn exp<S: Simd>(simd: S, x: S::f32s) -> S::f32s {
+    exp_in_range(simd, simd.min_f32s(simd.max_f32s(x, simd.splat_f32s(-87.0)), simd.splat_f32s(88.0)))
+}
+
+/// [`exp`] for `x` already within [-87, 88].
+#[inline(always)]
+fn exp_in_range<S: Simd>(simd: S, x: S::f32s) -> S::f32s {
     const MAGIC: f32 = 12_582_912.0; // 1.5 * 2^23
     let c = |v: f32| simd.splat_f32s(v);
-    let x = simd.min_f32s(simd.max_f32s(x, c(-87.0)), c(88.0));
     let t = simd.mul_add_e_f32s(x, c(std::f32::consts::LOG2_E), c(MAGIC));
     let n = simd.sub_f32s(t, c(MAGIC));
     let r = simd.mul_add_e_f32s(n, c(-0.693_359_4), x);
@@ -189,7 +194,9 @@ fn tanh<S: Simd>(simd: S, x: S::f32s) -> S::f32s {
 /// `a = 1 + e^-i`, `b = 1 + e^-f`, `d = 1 + e^-o`, `q = e^2g + 1` and `r = 1 / (a b d q)`,
 /// `sigmoid(i) = b d q r` and so on, `tanh(g) = (e^2g - 1) a b d r`. The arguments are
 /// clamped to +-20 (+-10 for `tanh`), where the functions are within 2e-9 of their limits,
-/// so the product stays below 1e35.
+/// so the product stays below 1e35. Eight vectors go through each stage together: each
+/// one's chain of dependent operations is long, and interleaved they keep the FMA units busy
+/// (87 -> 49 cycles a vector, measured).
 #[inline(always)]
 pub fn lstm_update<S: Simd>(simd: S, gates: &[f32], h: &mut [f32], c: &mut [f32]) {
     let n = h.len();
@@ -197,23 +204,67 @@ pub fn lstm_update<S: Simd>(simd: S, gates: &[f32], h: &mut [f32], c: &mut [f32]
     let (hv, _) = S::as_mut_simd_f32s(h);
     let (cv, _) = S::as_mut_simd_f32s(c);
     let m = hv.len();
-    let one = simd.splat_f32s(1.0);
-    let clamp = |x: S::f32s, l: f32| simd.min_f32s(simd.max_f32s(x, simd.splat_f32s(-l)), simd.splat_f32s(l));
-    for j in 0..m {
-        let a = simd.add_f32s(one, exp(simd, simd.neg_f32s(clamp(gv[j], 20.0))));
-        let b = simd.add_f32s(one, exp(simd, simd.neg_f32s(clamp(gv[m + j], 20.0))));
-        let g = clamp(gv[2 * m + j], 10.0);
-        let e2g = exp(simd, simd.add_f32s(g, g));
-        let q = simd.add_f32s(e2g, one);
-        let d = simd.add_f32s(one, exp(simd, simd.neg_f32s(clamp(gv[3 * m + j], 20.0))));
-        let (ab, dq) = (simd.mul_f32s(a, b), simd.mul_f32s(d, q));
-        let r = simd.div_f32s(one, simd.mul_f32s(ab, dq));
-        let si = simd.mul_f32s(simd.mul_f32s(b, dq), r);
-        let sf = simd.mul_f32s(simd.mul_f32s(a, dq), r);
-        let so = simd.mul_f32s(simd.mul_f32s(ab, q), r);
-        let tg = simd.mul_f32s(simd.mul_f32s(simd.sub_f32s(e2g, one), simd.mul_f32s(ab, d)), r);
-        let cn = simd.mul_add_e_f32s(sf, cv[j], simd.mul_f32s(si, tg));
-        cv[j] = cn;
-        hv[j] = simd.mul_f32s(so, tanh(simd, cn));
+    let mut j = 0;
+    while j + UPDATE_BLOCK <= m {
+        cell_block::<S, UPDATE_BLOCK>(simd, gv, m, j, hv, cv);
+        j += UPDATE_BLOCK;
     }
+    while j < m {
+        cell_block::<S, 1>(simd, gv, m, j, hv, cv);
+        j += 1;
+    }
+}
+
+/// Vectors per block of [`lstm_update`].
+const UPDATE_BLOCK: usize = 8;
+
+/// [`lstm_update`] for vectors `j..j + U` of each gate.
+#[inline(always)]
+fn cell_block<S: Simd, const U: usize>(
+    simd: S,
+    gv: &[S::f32s],
+    m: usize,
+    j: usize,
+    hv: &mut [S::f32s],
+    cv: &mut [S::f32s],
+) {
+    let one = simd.splat_f32s(1.0);
+    let mut a = [one; U];
+    let mut b = [one; U];
+    let mut e2g = [one; U];
+    let mut d = [one; U];
+    for u in 0..U {
+        a[u] = sig_den(simd, gv[j + u]);
+        b[u] = sig_den(simd, gv[m + j + u]);
+        let g = clamp(simd, gv[2 * m + j + u], 10.0);
+        e2g[u] = exp_in_range(simd, simd.add_f32s(g, g));
+        d[u] = sig_den(simd, gv[3 * m + j + u]);
+    }
+    let mut cn = [one; U];
+    let mut so = [one; U];
+    for u in 0..U {
+        let q = simd.add_f32s(e2g[u], one);
+        let (ab, dq) = (simd.mul_f32s(a[u], b[u]), simd.mul_f32s(d[u], q));
+        let r = simd.div_f32s(one, simd.mul_f32s(ab, dq));
+        let si = simd.mul_f32s(simd.mul_f32s(b[u], dq), r);
+        let sf = simd.mul_f32s(simd.mul_f32s(a[u], dq), r);
+        so[u] = simd.mul_f32s(simd.mul_f32s(ab, q), r);
+        let tg = simd.mul_f32s(simd.mul_f32s(simd.sub_f32s(e2g[u], one), simd.mul_f32s(ab, d[u])), r);
+        cn[u] = simd.mul_add_e_f32s(sf, cv[j + u], simd.mul_f32s(si, tg));
+    }
+    for u in 0..U {
+        cv[j + u] = cn[u];
+        hv[j + u] = simd.mul_f32s(so[u], tanh(simd, cn[u]));
+    }
+}
+
+#[inline(always)]
+fn clamp<S: Simd>(simd: S, x: S::f32s, l: f32) -> S::f32s {
+    simd.min_f32s(simd.max_f32s(x, simd.splat_f32s(-l)), simd.splat_f32s(l))
+}
+
+/// `1 + e^-x`, `x` clamped to +-20.
+#[inline(always)]
+fn sig_den<S: Simd>(simd: S, x: S::f32s) -> S::f32s {
+    simd.add_f32s(simd.splat_f32s(1.0), exp_in_range(simd, simd.neg_f32s(clamp(simd, x, 20.0))))
 }
