@@ -36,7 +36,7 @@ use crate::motion::STICK_TIP_LOCAL;
 use std::f32::consts::PI;
 
 /// Grip speed at a contact as a fraction of the stick tip's strike speed.
-pub const GRIP_SPEED_FRACTION: f32 = 0.25;
+pub const GRIP_SPEED_FRACTION: f32 = 0.15;
 /// Longest half-width of the stroke window around a contact, seconds.
 pub const HALF_S: f64 = 0.06;
 /// The half-width is at most this fraction of the gap to either neighbouring contact.
