@@ -26,7 +26,7 @@ use crate::motion::HAND_VALUES;
 /// Most streams a direction runs side by side.
 pub const MAX_STREAMS: usize = 6;
 /// Frames of playing a chunk that does not start at the sequence's end warms up over.
-pub const WARMUP: usize = 160;
+pub const WARMUP: usize = 240;
 /// A frame counts as playing within this many frames of a note (half a second).
 pub const PLAYING_FRAMES: usize = 30;
 /// The shortest chunk worth a stream of its own.
@@ -111,6 +111,34 @@ fn lead_over(frames: impl ExactSizeIterator<Item = bool>, want: usize) -> usize 
         }
     }
     len
+}
+
+/// Per stream: the first frame it owns, one past its last, and its warm-up lead (reaching
+/// back in the forward direction, ahead in the reverse one, until the warm-up holds
+/// `warmup` frames of playing, or to the end of the sequence). The streams run in
+/// lockstep, so the chunks are sized for equal work, warm-up included: a chunk with no
+/// warm-up (the first forward, the last reverse) is the longer.
+fn balanced_spans(active: &[bool], d: usize, streams: usize, warmup: usize) -> Vec<(usize, usize, usize)> {
+    let t = active.len();
+    let lead = |a: usize, b: usize| {
+        if d == 0 {
+            lead_over((0..a).rev().map(|f| active[f]), warmup)
+        } else {
+            lead_over((b..t).map(|f| active[f]), warmup)
+        }
+    };
+    let mut bounds: Vec<usize> = (0..=streams).map(|s| (s * t).div_ceil(streams)).collect();
+    for _ in 0..3 {
+        let leads: Vec<usize> = (0..streams).map(|s| lead(bounds[s], bounds[s + 1])).collect();
+        let steps = (t + leads.iter().sum::<usize>()).div_ceil(streams);
+        let mut next = vec![0; streams + 1];
+        for s in 0..streams {
+            next[s + 1] = (next[s] + steps.saturating_sub(leads[s])).min(t);
+        }
+        next[streams] = t;
+        bounds = next;
+    }
+    (0..streams).map(|s| (bounds[s], bounds[s + 1], lead(bounds[s], bounds[s + 1]))).collect()
 }
 
 /// Streams and warm-up for a sequence of `t` frames.
@@ -280,24 +308,9 @@ fn direction<S: Simd, Src: Source, Snk: Sink>(
     streams: usize,
     warmup: usize,
 ) {
-    let t = active.len();
     let h = rec.k;
     let g4 = 4 * h;
-    let chunk = t.div_ceil(streams);
-    // Per stream: first frame it owns, one past its last, and its warm-up lead.
-    let spans: Vec<(usize, usize, usize)> = (0..streams)
-        .map(|s| {
-            let (a, b) = ((s * chunk).min(t), ((s + 1) * chunk).min(t));
-            // Reach back (forward direction) or ahead (reverse) until the warm-up holds
-            // `warmup` frames of playing, or to the end of the sequence.
-            let lead = if d == 0 {
-                lead_over((0..a).rev().map(|f| active[f]), warmup)
-            } else {
-                lead_over((b..t).map(|f| active[f]), warmup)
-            };
-            (a, b, lead)
-        })
-        .collect();
+    let spans = balanced_spans(active, d, streams, warmup);
     let steps = spans.iter().map(|&(a, b, lead)| b - a + lead).max().unwrap_or(0);
     let (mut hs, mut cs) = (vec![0.0f32; streams * h], vec![0.0f32; streams * h]);
     let mut gates = vec![0.0f32; streams * g4];
