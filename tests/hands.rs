@@ -247,3 +247,15 @@ fn chunked_inference_matches_the_sequential_pass() {
     let cold = worst(&model.forward_streams(&roll, streams, 0));
     assert!(cold > 10.0 * chunked.max(1e-6), "cold starts {cold} vs warmed {chunked}");
 }
+
+#[test]
+fn a_changed_teacher_changes_the_data_digest() {
+    // A resumed run compares this digest to tell that its material changed (and then
+    // measures the best checkpoint afresh).
+    use drumsim::motion::hands::train::data_digest;
+    let a = vec![synthetic_example(1, 50), synthetic_example(2, 40)];
+    let mut b = a.clone();
+    assert_eq!(data_digest(&a), data_digest(&b), "the same material, the same digest");
+    b[1].hands[7][3] += 1e-6;
+    assert_ne!(data_digest(&a), data_digest(&b), "one target moved");
+}

@@ -86,7 +86,12 @@ pub fn rotation(yaw: f32, pitch: f32) -> [f32; 4] {
 
 /// Where `hand`'s grip is when its tip strikes `point`.
 pub fn impact_grip(hand: usize, point: [f32; 3]) -> [f32; 3] {
-    let d = stick_dir(yaw_toward(hand, point), PITCH_IMPACT_DEG.to_radians());
+    grip_for_pitch(hand, point, PITCH_IMPACT_DEG.to_radians())
+}
+
+/// Where `hand`'s grip is when its tip is on `point` with the stick pitched `pitch`.
+fn grip_for_pitch(hand: usize, point: [f32; 3], pitch: f32) -> [f32; 3] {
+    let d = stick_dir(yaw_toward(hand, point), pitch);
     let l = stick_len();
     [point[0] - l * d[0], point[1] - l * d[1], point[2] - l * d[2]]
 }
@@ -181,15 +186,11 @@ impl GripTrack {
                     h.speed *= scale as f32;
                 }
                 let mut acc = 0.0;
-                let mut travel = Vec::with_capacity(end - start);
-                for g in start..end {
-                    travel.push(dist(impact_grip(hand, hits[g].point), impact_grip(hand, hits[g + 1].point)));
-                }
-                for (j, g) in (start..end).enumerate() {
-                    let want = lengths[j] * scale;
+                for (g, want) in (start..end).zip(&lengths) {
+                    let travel = dist(impact_grip(hand, hits[g].point), impact_grip(hand, hits[g + 1].point));
+                    let want = want * scale;
                     drift[g] = acc as f32;
-                    acc += (want * want - travel[j] * travel[j]).max(0.0).sqrt() / stick_len() as f64;
-                    let _ = g;
+                    acc += (want * want - travel * travel).max(0.0).sqrt() / stick_len() as f64;
                 }
                 drift[end] = acc as f32;
                 for d in &mut drift[start..=end] {
@@ -201,11 +202,7 @@ impl GripTrack {
         let impact: Vec<[f32; 3]> = hits
             .iter()
             .zip(&drift)
-            .map(|(h, &dp)| {
-                let d = stick_dir(yaw_toward(hand, h.point), PITCH_IMPACT_DEG.to_radians() + dp);
-                let l = stick_len();
-                [h.point[0] - l * d[0], h.point[1] - l * d[1], h.point[2] - l * d[2]]
-            })
+            .map(|(h, &dp)| grip_for_pitch(hand, h.point, PITCH_IMPACT_DEG.to_radians() + dp))
             .collect();
         // A glide whose path its contact speeds could not cover at ramp exponent 4 raises
         // both (one forward pass: raising only lengthens the other gap a speed borders).

@@ -9,14 +9,6 @@ pub fn min_jerk(s: f32) -> f32 {
     s * s * s * (10.0 + s * (-15.0 + 6.0 * s))
 }
 
-/// Progress of a minimum-jerk move that runs from `t0` to `t1` (a step when `t1 <= t0`).
-pub fn min_jerk_at(t0: f64, t1: f64, t: f64) -> f32 {
-    if t1 <= t0 {
-        return if t >= t1 { 1.0 } else { 0.0 };
-    }
-    min_jerk(((t - t0) / (t1 - t0)) as f32)
-}
-
 /// `a + (b - a) * s`, per coordinate.
 pub fn lerp3(a: [f32; 3], b: [f32; 3], s: f32) -> [f32; 3] {
     std::array::from_fn(|i| a[i] + (b[i] - a[i]) * s)
