@@ -1,5 +1,6 @@
 //! Hand-model inference over 3 minutes of roll (10,800 frames at 60 fps), hidden 128: our
-//! forward pass (`hand_infer/ours`, and `ours_one_stream`, the exact sequential pass) and
+//! forward pass (`hand_infer/ours`, what drumsim runs: fixed-point streams; `ours_f32`, the
+//! same streams in f32; `ours_one_stream`, the exact sequential pass in f32) and
 //! burn's (`hand_infer/burn`) in the same process, so the ratio holds on a noisy machine.
 //! Run: `cargo bench --bench hands`.
 
@@ -7,6 +8,7 @@ use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
 use criterion::{criterion_group, criterion_main, Criterion};
 use drumsim::motion::hands::model::HandNet;
+use drumsim::motion::hands::streams::plan;
 use drumsim::motion::hands::weights::HandWeights;
 use drumsim::motion::hands::{HandModel, Normalisation, ROLL_COLUMNS};
 
@@ -41,7 +43,10 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("hand_infer");
     g.sample_size(10);
     g.bench_function("ours", |b| b.iter(|| model.predict(std::hint::black_box(&roll))));
-    // The exact sequential pass (one stream), for the streams' share of the speed-up.
+    // The same streams in f32, for the fixed point's share of the speed-up.
+    let (streams, warmup) = plan(FRAMES);
+    g.bench_function("ours_f32", |b| b.iter(|| model.forward_streams(std::hint::black_box(&roll), streams, warmup)));
+    // The exact sequential pass (one stream, f32), for the streams' share.
     g.bench_function("ours_one_stream", |b| b.iter(|| model.forward_streams(std::hint::black_box(&roll), 1, 0)));
     let flat: Vec<f32> = roll.iter().flatten().copied().collect();
     g.bench_function("burn", |b| {

@@ -60,18 +60,21 @@ fn our_forward_equals_burns_within_1e4() {
         for (i, &len) in lengths.iter().enumerate() {
             let roll = random_roll(len, 0.15, seed * 100 + i as u64);
             let expected = burn_forward(&net, &roll);
-            let got = ours.forward_normalised(&roll);
-            assert_eq!(got.len(), len);
-            let mut worst = 0.0f32;
-            for (a, b) in got.iter().zip(&expected) {
-                for c in 0..HAND_VALUES {
-                    worst = worst.max((a[c] - b[c]).abs());
-                }
-            }
+            let worst = |got: &[[f32; HAND_VALUES]]| {
+                assert_eq!(got.len(), len);
+                got.iter()
+                    .zip(&expected)
+                    .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+                    .fold(0.0f32, f32::max)
+            };
+            // The f32 pass (one stream, exact) and the fixed-point one the product runs.
+            let exact = worst(&ours.forward_streams(&roll, 1, 0));
+            let fixed = worst(&ours.forward_normalised(&roll));
             let scale = expected.iter().flatten().map(|v| v.abs()).fold(0.0f32, f32::max);
-            println!("hidden {hidden}, {len} frames: max |ours - burn| = {worst:.2e} (outputs up to {scale:.3})");
+            println!("hidden {hidden}, {len} frames: max |ours - burn| = {exact:.2e} in f32, {fixed:.2e} in fixed point (outputs up to {scale:.3})");
             assert!(scale > 1e-3, "outputs too small to compare");
-            assert!(worst <= 1e-4, "hidden {hidden}, {len} frames: max difference {worst}");
+            assert!(exact <= 1e-4, "hidden {hidden}, {len} frames: max difference {exact}");
+            assert!(fixed <= 1e-3, "hidden {hidden}, {len} frames: fixed point differs by {fixed}");
         }
         assert!(ours.forward_normalised(&[]).is_empty(), "0 frames give an empty output");
     }
@@ -237,12 +240,18 @@ fn chunked_inference_matches_the_sequential_pass() {
     let worst = |out: &[[f32; HAND_VALUES]]| {
         out.iter().zip(&exact).flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs())).fold(0.0f32, f32::max)
     };
-    let chunked = worst(&model.forward_normalised(&roll));
+    let chunked = worst(&model.forward_streams(&roll, streams, warmup));
+    let fixed = worst(&model.forward_normalised(&roll));
     let scale = exact.iter().flatten().map(|v| v.abs()).fold(0.0f32, f32::max);
-    println!("{streams} streams, {warmup} frames of warm-up: max |chunked - sequential| = {chunked:.2e} (outputs up to {scale:.2})");
+    println!(
+        "{streams} streams, {warmup} frames of warm-up: max |chunked - sequential| = {chunked:.2e}, \
+         in fixed point {fixed:.2e} (outputs up to {scale:.2})"
+    );
     assert!(scale > 0.5, "outputs too small to compare");
     // 1e-3 of a normalised output is about a tenth of a millimetre of hand position.
     assert!(chunked <= 1e-3, "chunked inference differs by {chunked}");
+    // The fixed point rounds every product to 13-15 bits: about half a millimetre at most.
+    assert!(fixed <= 5e-3, "fixed-point inference differs by {fixed}");
     // Without the warm-up the chunks' cold starts show.
     let cold = worst(&model.forward_streams(&roll, streams, 0));
     assert!(cold > 10.0 * chunked.max(1e-6), "cold starts {cold} vs warmed {chunked}");

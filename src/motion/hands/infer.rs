@@ -1,12 +1,16 @@
-//! Our own forward pass of the hand network on plain `f32` arrays: the same function as
-//! [`super::model::HandNet::forward`] (within 1e-4, `tests/hands.rs`), several times faster
-//! on one core, with no burn tensors at run time.
+//! Our own forward pass of the hand network on plain arrays: the same function as
+//! [`super::model::HandNet::forward`] (within 1e-4 in `f32`, `tests/hands.rs`), ten times
+//! faster on one core, with no burn tensors at run time.
 //!
 //! Two paths compute it:
 //! - On x86-64 with AVX2 + FMA (pulp's `V3`) and a hidden size that is a multiple of 8, the
 //!   kernels of [`super::kernels`] run through [`super::streams`]: the recurrence as parallel
-//!   warmed-up streams, layer 2's input projection made block by block, the output layer fed
-//!   straight from layer 2's states. 3 minutes (10,800 frames) take about 170 ms here.
+//!   warmed-up streams, layer 2's input projection made block by block, the output layer
+//!   over all of layer 2's states at the end. [`HandModel::predict`] does the three big
+//!   products in 16-bit fixed point ([`super::quant`], hidden a multiple of 16): 3 minutes
+//!   (10,800 frames) take about 130-150 ms here, against 170-195 ms in `f32`
+//!   ([`HandModel::forward_streams`]), and differ from the `f32` pass by at most 3e-3 of a
+//!   normalised output (half a millimetre).
 //! - Elsewhere, the portable path below: plain loops over fixed-size arrays that LLVM
 //!   vectorises for the default target (SSE2 on x86-64), the sequence run as one stream.
 //!   - Layer-1 input projection: the roll is binary and sparse, so it is the bias plus the
@@ -22,7 +26,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use super::streams::{plan, Forward, SimdNet};
+use super::streams::{plan, Forward, Kernels, SimdNet};
 use super::weights::HandWeights;
 use super::{HandsError, Normalisation, ROLL_COLUMNS};
 use crate::midi::roll::PianoRoll;
@@ -188,23 +192,36 @@ impl HandModel {
     /// (long sequences as parallel streams, see [`super::streams`]).
     pub fn forward_normalised(&self, roll: &[[f32; ROLL_COLUMNS]]) -> Vec<[f32; HAND_VALUES]> {
         let (streams, warmup) = plan(roll.len());
-        self.forward_streams(roll, streams, warmup)
+        self.forward_with(roll, streams, warmup, Kernels::Fixed)
     }
 
-    /// [`Self::forward_normalised`] with a chosen number of streams and warm-up (one stream
-    /// is the exact sequential pass).
+    /// [`Self::forward_normalised`] in `f32` with a chosen number of streams and warm-up
+    /// (one stream is the exact sequential pass).
     pub fn forward_streams(
         &self,
         roll: &[[f32; ROLL_COLUMNS]],
         streams: usize,
         warmup: usize,
     ) -> Vec<[f32; HAND_VALUES]> {
+        self.forward_with(roll, streams, warmup, Kernels::F32)
+    }
+
+    /// The forward pass with chosen streams, warm-up and kernels (the portable path, where
+    /// there is no AVX2, ignores all three).
+    pub fn forward_with(
+        &self,
+        roll: &[[f32; ROLL_COLUMNS]],
+        streams: usize,
+        warmup: usize,
+        kernels: Kernels,
+    ) -> Vec<[f32; HAND_VALUES]> {
         if roll.is_empty() {
             return Vec::new();
         }
         #[cfg(target_arch = "x86_64")]
         if let (Some(net), Some(v3)) = (&self.simd, pulp::x86::V3::try_new()) {
-            return <pulp::x86::V3 as pulp::Simd>::vectorize(v3, Forward { net, roll, streams, warmup });
+            let op = Forward { v3, net, roll, streams, warmup, kernels };
+            return <pulp::x86::V3 as pulp::Simd>::vectorize(v3, op);
         }
         let p = &self.packed;
         if self.fma {

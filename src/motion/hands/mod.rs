@@ -13,6 +13,7 @@
 pub mod infer;
 pub mod kernels;
 pub mod model;
+pub mod quant;
 pub mod streams;
 pub mod train;
 pub mod validate;
@@ -25,6 +26,7 @@ use serde::{Deserialize, Serialize};
 use crate::motion::HAND_VALUES;
 
 pub use infer::HandModel;
+pub use streams::Kernels;
 pub use train::{run_train, train, EpochReport, TrainConfig, TrainReport};
 
 /// Piano-roll columns (`midi::roll::NOTE_NUMS`), the network's input width.

@@ -15,10 +15,16 @@
 //! to well within the model's precision (measured in `tests/hands.rs`:
 //! `chunked_inference_matches_the_sequential_pass`, on three minutes of Groove MIDI takes).
 //! Sequences shorter than two chunks run as one stream, exactly.
+//!
+//! The two recurrences and layer 2's input projection run either in `f32` ([`Kernels::F32`],
+//! [`super::kernels`]) or in 16-bit fixed point ([`Kernels::Fixed`], [`super::quant`]); the
+//! gates, the cell update, layer 1's input and the output layer are `f32` in both.
 
+use pulp::x86::V3;
 use pulp::{Simd, WithSimd};
 
-use super::kernels::{gemm, lstm_update, micro, recurrent, Tiles, GEMM_ROWS, REC_ROWS, TILE};
+use super::kernels::{gemm, lstm_update, recurrent, Tiles, GEMM_ROWS, REC_ROWS, TILE};
+use super::quant::{self, QTiles};
 use super::weights::HandWeights;
 use super::ROLL_COLUMNS;
 use crate::motion::HAND_VALUES;
@@ -44,10 +50,28 @@ pub struct SimdNet {
     /// Layer-2 input projection `[2H][4H]` packed, and bias, per direction.
     l2: [Tiles; 2],
     l2_b: [Vec<f32>; 2],
-    /// Output layer: the rows `[H][14]` (padded to 16) that each direction's states meet,
-    /// and the bias.
-    head: [Tiles; 2],
+    /// Output layer `[2H][14]` (padded to 16), and the bias.
+    head: Tiles,
     head_b: Vec<f32>,
+    /// The recurrent weights and layer 2's input projection in fixed point (hidden a
+    /// multiple of 16), for [`Kernels::Fixed`].
+    fixed: Option<FixedNet>,
+}
+
+/// The 16-bit copies of the big matrices ([`super::quant`]).
+#[derive(Debug, Clone)]
+struct FixedNet {
+    rec: [[QTiles; 2]; 2],
+    l2: [QTiles; 2],
+}
+
+/// Which kernels do the three big products.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kernels {
+    /// `f32` FMA: one stream is the exact sequential pass.
+    F32,
+    /// 16-bit fixed point ([`super::quant`]), twice the multiply-adds an instruction.
+    Fixed,
 }
 
 impl SimdNet {
@@ -61,7 +85,6 @@ impl SimdNet {
         let [l1, l2] = &w.layers;
         let mut head_b = w.head_b.to_vec();
         head_b.resize(HAND_VALUES.div_ceil(TILE) * TILE, 0.0);
-        let head = |d: usize| Tiles::new(&w.head_w[d * h * HAND_VALUES..][..h * HAND_VALUES], h, HAND_VALUES);
         Some(Self {
             hidden: h,
             l1_w: [l1[0].w_ih.clone(), l1[1].w_ih.clone()],
@@ -72,8 +95,15 @@ impl SimdNet {
             ],
             l2: [Tiles::new(&l2[0].w_ih, 2 * h, g4), Tiles::new(&l2[1].w_ih, 2 * h, g4)],
             l2_b: [l2[0].bias.clone(), l2[1].bias.clone()],
-            head: [head(0), head(1)],
+            head: Tiles::new(&w.head_w[..2 * h * HAND_VALUES], 2 * h, HAND_VALUES),
             head_b,
+            fixed: h.is_multiple_of(16).then(|| FixedNet {
+                rec: [
+                    [QTiles::new(&l1[0].w_hh, h, g4), QTiles::new(&l1[1].w_hh, h, g4)],
+                    [QTiles::new(&l2[0].w_hh, h, g4), QTiles::new(&l2[1].w_hh, h, g4)],
+                ],
+                l2: [QTiles::new(&l2[0].w_ih, 2 * h, g4), QTiles::new(&l2[1].w_ih, 2 * h, g4)],
+            }),
         })
     }
 }
@@ -149,10 +179,13 @@ pub fn plan(t: usize) -> (usize, usize) {
 
 /// The forward pass over a roll: raw (normalised) outputs.
 pub struct Forward<'a> {
+    pub v3: V3,
     pub net: &'a SimdNet,
     pub roll: &'a [[f32; ROLL_COLUMNS]],
     pub streams: usize,
     pub warmup: usize,
+    /// [`Kernels::Fixed`] falls back to `f32` where the network has no fixed-point copy.
+    pub kernels: Kernels,
 }
 
 impl WithSimd for Forward<'_> {
@@ -165,29 +198,64 @@ impl WithSimd for Forward<'_> {
         let (streams, warmup) = (self.streams.clamp(1, MAX_STREAMS), self.warmup);
         // Layer 1's pre-activations come straight from the sparse roll; its states go to z1.
         let active = playing(roll);
+        let fixed = p.fixed.as_ref().filter(|_| self.kernels == Kernels::Fixed);
+        let v3 = self.v3;
         let mut z1 = vec![0.0f32; t * 2 * h];
         for d in 0..2 {
-            let mut src = RollSource { roll, w: &p.l1_w[d], b: &p.l1_b[d] };
+            let mut src = RollSource::new(roll, &p.l1_w[d], &p.l1_b[d], streams);
             let mut sink = StateSink { z: &mut z1, offset: d * h, stride: 2 * h };
-            direction(simd, &p.rec[0][d], &mut src, &mut sink, d, &active, streams, warmup);
+            let spec = Spec { d, active: &active, streams, warmup, hidden: h };
+            match fixed {
+                Some(f) => direction(simd, &mut FixedRecurrence::new(v3, &f.rec[0][d]), &mut src, &mut sink, spec),
+                None => direction(simd, &mut F32Recurrence::new(&p.rec[0][d]), &mut src, &mut sink, spec),
+            }
         }
         // Layer 2's pre-activations are made block by block from z1 as each stream reaches
-        // them; its states go straight into the output layer.
-        let np = p.head_b.len();
-        let mut out: Vec<f32> = (0..t).flat_map(|_| p.head_b.iter().copied()).collect();
-        for d in 0..2 {
-            let mut src = BlockSource::new(&z1, &p.l2[d], &p.l2_b[d], streams, d == 1);
-            let mut sink = HeadSink { out: &mut out, w: &p.head[d] };
-            direction(simd, &p.rec[1][d], &mut src, &mut sink, d, &active, streams, warmup);
+        // them; its states go to z2, and then through the output layer all at once.
+        let mut z2 = vec![0.0f32; t * 2 * h];
+        let mut z1q = Vec::new();
+        if fixed.is_some() {
+            z1q.resize(t * h, 0);
+            quant::quantize(v3, &z1, &mut z1q);
         }
-        out.chunks_exact(np).map(|r| std::array::from_fn(|c| r[c])).collect()
+        for d in 0..2 {
+            let mut sink = StateSink { z: &mut z2, offset: d * h, stride: 2 * h };
+            let spec = Spec { d, active: &active, streams, warmup, hidden: h };
+            let (b, g4) = (&p.l2_b[d], p.l2[d].n_pad);
+            match fixed {
+                Some(f) => {
+                    let proj = FixedProjection { v3, z: &z1q, w: &f.l2[d], b, xt: Vec::new() };
+                    let mut src = BlockSource::new(proj, t, g4, streams, d == 1);
+                    direction(simd, &mut FixedRecurrence::new(v3, &f.rec[1][d]), &mut src, &mut sink, spec);
+                }
+                None => {
+                    let proj = F32Projection { z: &z1, w: &p.l2[d], b, xt: Vec::new() };
+                    let mut src = BlockSource::new(proj, t, g4, streams, d == 1);
+                    direction(simd, &mut F32Recurrence::new(&p.rec[1][d]), &mut src, &mut sink, spec);
+                }
+            }
+        }
+        let np = p.head.n_pad;
+        let mut out = vec![0.0f32; BLOCK * np];
+        let mut xt = Vec::new();
+        let mut values = Vec::with_capacity(t);
+        for z in z2.chunks(BLOCK * 2 * h) {
+            let rows = z.len() / (2 * h);
+            gemm(simd, z, &p.head, &p.head_b, &mut out[..rows * np], &mut xt);
+            values.extend(
+                out[..rows * np].chunks_exact(np).map(|r| -> [f32; HAND_VALUES] { std::array::from_fn(|c| r[c]) }),
+            );
+        }
+        values
     }
 }
 
 /// Where a direction's gate pre-activations come from.
 trait Source {
-    /// Write frame `f`'s pre-activations (`4H`) for stream `s` into `row`.
-    fn fill<S: Simd>(&mut self, simd: S, s: usize, f: usize, row: &mut [f32]);
+    /// Make frame `f`'s pre-activations (`4H`) ready for stream `s`.
+    fn prepare<S: Simd>(&mut self, simd: S, s: usize, f: usize);
+    /// Stream `s`'s pre-activations of frame `f`, after [`Source::prepare`].
+    fn row(&self, s: usize, f: usize) -> &[f32];
 }
 
 /// Layer 1: bias plus the input weight rows of the notes on in the frame.
@@ -195,13 +263,22 @@ struct RollSource<'a> {
     roll: &'a [[f32; ROLL_COLUMNS]],
     w: &'a [f32],
     b: &'a [f32],
+    /// Per stream, `[4H]`.
+    rows: Vec<f32>,
+}
+
+impl<'a> RollSource<'a> {
+    fn new(roll: &'a [[f32; ROLL_COLUMNS]], w: &'a [f32], b: &'a [f32], streams: usize) -> Self {
+        Self { roll, w, b, rows: vec![0.0; streams * b.len()] }
+    }
 }
 
 impl Source for RollSource<'_> {
     #[inline(always)]
-    fn fill<S: Simd>(&mut self, simd: S, _s: usize, f: usize, row: &mut [f32]) {
+    fn prepare<S: Simd>(&mut self, simd: S, s: usize, f: usize) {
+        let g4 = self.b.len();
+        let row = &mut self.rows[s * g4..][..g4];
         row.copy_from_slice(self.b);
-        let g4 = row.len();
         for (n, &v) in self.roll[f].iter().enumerate() {
             if v != 0.0 {
                 let (rv, _) = S::as_mut_simd_f32s(row);
@@ -213,46 +290,136 @@ impl Source for RollSource<'_> {
             }
         }
     }
+
+    #[inline(always)]
+    fn row(&self, s: usize, _f: usize) -> &[f32] {
+        let g4 = self.b.len();
+        &self.rows[s * g4..][..g4]
+    }
 }
 
 /// Frames per block of layer-2 pre-activations a stream computes at once.
 const BLOCK: usize = 48;
 
-/// Layer 2: `bias + z1 W_ih`, computed for [`BLOCK`] frames of a stream at a time (ahead of
-/// it in its direction), so no `[t][4H]` array is ever made.
-struct BlockSource<'a> {
-    z1: &'a [f32],
+/// Layer 2's input projection of a run of frames: `out[r] = bias + z1[a + r] W_ih`.
+trait Projection {
+    fn rows<S: Simd>(&mut self, simd: S, a: usize, b: usize, out: &mut [f32]);
+}
+
+struct F32Projection<'a> {
+    z: &'a [f32],
     w: &'a Tiles,
     b: &'a [f32],
+    xt: Vec<[f32; GEMM_ROWS]>,
+}
+
+impl Projection for F32Projection<'_> {
+    #[inline(always)]
+    fn rows<S: Simd>(&mut self, simd: S, a: usize, b: usize, out: &mut [f32]) {
+        let k = self.w.k;
+        gemm(simd, &self.z[a * k..b * k], self.w, self.b, out, &mut self.xt);
+    }
+}
+
+/// The same from the fixed-point layer-1 states.
+struct FixedProjection<'a> {
+    v3: V3,
+    z: &'a [i32],
+    w: &'a QTiles,
+    b: &'a [f32],
+    xt: Vec<[i32; quant::ROWS]>,
+}
+
+impl Projection for FixedProjection<'_> {
+    #[inline(always)]
+    fn rows<S: Simd>(&mut self, _simd: S, a: usize, b: usize, out: &mut [f32]) {
+        let p = self.w.k / 2;
+        quant::gemm(self.v3, &self.z[a * p..b * p], self.w, self.b, out, &mut self.xt);
+    }
+}
+
+/// Layer 2: its projection computed for [`BLOCK`] frames of a stream at a time (ahead of
+/// it in its direction), so no `[t][4H]` array is ever made.
+struct BlockSource<P> {
+    proj: P,
+    frames: usize,
+    g4: usize,
     reverse: bool,
     /// Per stream: `[BLOCK][4H]` and the first frame the block holds.
     blocks: Vec<f32>,
     first: Vec<Option<usize>>,
-    xt: Vec<[f32; GEMM_ROWS]>,
 }
 
-impl<'a> BlockSource<'a> {
-    fn new(z1: &'a [f32], w: &'a Tiles, b: &'a [f32], streams: usize, reverse: bool) -> Self {
-        let blocks = vec![0.0; streams * BLOCK * w.n_pad];
-        Self { z1, w, b, reverse, blocks, first: vec![None; streams], xt: Vec::with_capacity(w.k) }
+impl<P: Projection> BlockSource<P> {
+    fn new(proj: P, frames: usize, g4: usize, streams: usize, reverse: bool) -> Self {
+        Self { proj, frames, g4, reverse, blocks: vec![0.0; streams * BLOCK * g4], first: vec![None; streams] }
     }
 }
 
-impl Source for BlockSource<'_> {
+impl<P: Projection> Source for BlockSource<P> {
     #[inline(always)]
-    fn fill<S: Simd>(&mut self, simd: S, s: usize, f: usize, row: &mut [f32]) {
-        let (k, g4) = (self.w.k, self.w.n_pad);
-        let t = self.z1.len() / k;
-        let block = &mut self.blocks[s * BLOCK * g4..][..BLOCK * g4];
+    fn prepare<S: Simd>(&mut self, simd: S, s: usize, f: usize) {
+        let g4 = self.g4;
         let held = self.first[s].is_some_and(|a| (a..a + BLOCK).contains(&f));
         if !held {
             let a = if self.reverse { (f + 1).saturating_sub(BLOCK) } else { f };
-            let b = (a + BLOCK).min(t);
-            gemm(simd, &self.z1[a * k..b * k], self.w, self.b, block, &mut self.xt);
+            let b = (a + BLOCK).min(self.frames);
+            self.proj.rows(simd, a, b, &mut self.blocks[s * BLOCK * g4..][..(b - a) * g4]);
             self.first[s] = Some(a);
         }
+    }
+
+    #[inline(always)]
+    fn row(&self, s: usize, f: usize) -> &[f32] {
+        let g4 = self.g4;
         let a = self.first[s].unwrap_or(f);
-        row.copy_from_slice(&block[(f - a) * g4..][..g4]);
+        &self.blocks[(s * BLOCK + f - a) * g4..][..g4]
+    }
+}
+
+/// A direction's recurrent product, `gates[s] = init[s] + h[s] W_hh` for every stream.
+trait Recurrence {
+    fn gates<S: Simd>(&mut self, simd: S, hs: &[f32], init: &[&[f32]], gates: &mut [f32]);
+}
+
+struct F32Recurrence<'a> {
+    w: &'a Tiles,
+    xt: Vec<[f32; REC_ROWS]>,
+}
+
+impl<'a> F32Recurrence<'a> {
+    fn new(w: &'a Tiles) -> Self {
+        Self { w, xt: Vec::with_capacity(w.k) }
+    }
+}
+
+impl Recurrence for F32Recurrence<'_> {
+    #[inline(always)]
+    fn gates<S: Simd>(&mut self, simd: S, hs: &[f32], init: &[&[f32]], gates: &mut [f32]) {
+        recurrent(simd, hs, self.w, init, gates, &mut self.xt);
+    }
+}
+
+/// The states rounded to fixed point each step, then [`quant::recurrent`].
+struct FixedRecurrence<'a> {
+    v3: V3,
+    w: &'a QTiles,
+    hq: Vec<i32>,
+    xt: Vec<[i32; quant::ROWS]>,
+}
+
+impl<'a> FixedRecurrence<'a> {
+    fn new(v3: V3, w: &'a QTiles) -> Self {
+        Self { v3, w, hq: Vec::new(), xt: Vec::with_capacity(w.k / 2) }
+    }
+}
+
+impl Recurrence for FixedRecurrence<'_> {
+    #[inline(always)]
+    fn gates<S: Simd>(&mut self, _simd: S, hs: &[f32], init: &[&[f32]], gates: &mut [f32]) {
+        self.hq.resize(hs.len() / 2, 0);
+        quant::quantize(self.v3, hs, &mut self.hq);
+        quant::recurrent(self.v3, &self.hq, self.w, init, gates, &mut self.xt);
     }
 }
 
@@ -275,60 +442,47 @@ impl Sink for StateSink<'_> {
     }
 }
 
-/// Into the output layer: `out[f] += h W_head` (this direction's rows).
-struct HeadSink<'a> {
-    out: &'a mut [f32],
-    w: &'a Tiles,
-}
-
-impl Sink for HeadSink<'_> {
-    #[inline(always)]
-    fn emit<S: Simd>(&mut self, simd: S, f: usize, h: &[f32]) {
-        let np = self.w.n_pad;
-        for tile in 0..np / TILE {
-            let mut acc = [0.0f32; TILE];
-            acc.copy_from_slice(&self.out[f * np + tile * TILE..][..TILE]);
-            let (h1, _) = h.as_chunks::<1>();
-            micro::<S, 1>(simd, h1, self.w.tile(tile), [&acc], self.out, [f * np + tile * TILE]);
-        }
-    }
-}
-
-/// One direction (`d` 0 forward, 1 reverse) of an LSTM layer over `t` frames as `streams`
-/// chunks: gate pre-activations from `src`, hidden states of owned frames to `sink`.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn direction<S: Simd, Src: Source, Snk: Sink>(
-    simd: S,
-    rec: &Tiles,
-    src: &mut Src,
-    sink: &mut Snk,
+/// What a direction runs over: `d` 0 forward, 1 reverse; the frames that are playing; the
+/// streams and warm-up; the hidden size.
+#[derive(Clone, Copy)]
+struct Spec<'a> {
     d: usize,
-    active: &[bool],
+    active: &'a [bool],
     streams: usize,
     warmup: usize,
+    hidden: usize,
+}
+
+/// One direction of an LSTM layer over `t` frames as `streams` chunks: gate pre-activations
+/// from `src`, the recurrent product from `rec`, hidden states of owned frames to `sink`.
+#[inline(always)]
+fn direction<S: Simd, R: Recurrence, Src: Source, Snk: Sink>(
+    simd: S,
+    rec: &mut R,
+    src: &mut Src,
+    sink: &mut Snk,
+    spec: Spec,
 ) {
-    let h = rec.k;
+    let Spec { d, active, streams, warmup, hidden: h } = spec;
     let g4 = 4 * h;
     let spans = balanced_spans(active, d, streams, warmup);
     let steps = spans.iter().map(|&(a, b, lead)| b - a + lead).max().unwrap_or(0);
     let (mut hs, mut cs) = (vec![0.0f32; streams * h], vec![0.0f32; streams * h]);
     let mut gates = vec![0.0f32; streams * g4];
-    let mut pre = vec![0.0f32; streams * g4];
+    let zeros = vec![0.0f32; g4];
     let mut frames = vec![None; streams];
-    let mut xt: Vec<[f32; REC_ROWS]> = Vec::with_capacity(h);
     for j in 0..steps {
         for (s, &(a, b, lead)) in spans.iter().enumerate() {
             frames[s] = (j < b - a + lead).then(|| if d == 0 { a - lead + j } else { b - 1 + lead - j });
-            let row = &mut pre[s * g4..][..g4];
-            match frames[s] {
-                Some(f) => src.fill(simd, s, f, row),
-                None => row.fill(0.0),
+            if let Some(f) = frames[s] {
+                src.prepare(simd, s, f);
             }
         }
-        let init: [&[f32]; MAX_STREAMS] =
-            std::array::from_fn(|s| if s < streams { &pre[s * g4..][..g4] } else { &[][..] });
-        recurrent(simd, &hs, rec, &init[..streams], &mut gates, &mut xt);
+        let mut init: [&[f32]; MAX_STREAMS] = [&[]; MAX_STREAMS];
+        for (s, slot) in init[..streams].iter_mut().enumerate() {
+            *slot = frames[s].map_or(&zeros[..], |f| src.row(s, f));
+        }
+        rec.gates(simd, &hs, &init[..streams], &mut gates);
         for (s, &(a, b, _)) in spans.iter().enumerate() {
             let Some(f) = frames[s] else { continue };
             lstm_update(simd, &gates[s * g4..][..g4], &mut hs[s * h..][..h], &mut cs[s * h..][..h]);
