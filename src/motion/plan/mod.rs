@@ -14,8 +14,11 @@
 //!    before to half a frame after the onset (so the 60 fps frame nearest the onset has the
 //!    tip on the surface), then the rebound.
 //!
-//! The grip moves with the tip (the hand's predicted rotation is kept), so the whole hand
-//! pose stays consistent. Positions come from the kit, so another layout moves every strike.
+//! The stroke is made with the wrist: the grip follows the predicted hand moved by the
+//! smooth offset alone, and the stick turns about it until the tip is where the stroke
+//! puts it (on the strike point at the hit). So the hand keeps the model's timing rather
+//! than stopping with the tip at every contact. Positions come from the kit, so another
+//! layout moves every strike.
 
 pub mod assign;
 pub mod stroke;

@@ -3,7 +3,7 @@
 //! the strike point around each note.
 
 use super::{Assignment, HandNote};
-use crate::motion::track::{Pose, STICK_TIP_LOCAL};
+use crate::motion::track::Pose;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StrokeSettings {
@@ -68,6 +68,34 @@ fn predicted_pose(predicted: &[[Pose; 2]], fps: f64, hand: usize, t: f64) -> Pos
     let n = dot4(rot, rot).sqrt();
     rot = if n > 1e-6 { rot.map(|v| v / n) } else { Pose::IDENTITY.rot };
     Pose { pos: add(p.pos, scale(sub(q.pos, p.pos), a)), rot }
+}
+
+fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Steepest a wrist stroke turns the stick from the predicted pose, radians.
+const MAX_WRIST_TURN: f32 = 1.3;
+
+/// The turn of a stick `v` (grip to tip) about the axis `v x n`, by the angle nearest zero
+/// that puts the tip `height` above the plane of normal `n` through the point the grip is
+/// `from_plane` away from (the nearest height where none reaches).
+fn wrist_turn(v: [f32; 3], from_plane: [f32; 3], n: [f32; 3], height: f32) -> nalgebra::UnitQuaternion<f32> {
+    use nalgebra::{Unit, UnitQuaternion, Vector3};
+    let (v, n) = (Vector3::from(v), Vector3::from(n));
+    let Some(axis) = Unit::try_new(v.cross(&n), 1e-6) else { return UnitQuaternion::identity() };
+    // Tip height after turning by phi: g + A cos(phi) + B sin(phi).
+    let (a, b) = (v.dot(&n), axis.cross(&v).dot(&n));
+    let c = height - Vector3::from(from_plane).dot(&n);
+    let r = a.hypot(b);
+    if r < 1e-6 {
+        return UnitQuaternion::identity();
+    }
+    let (base, spread) = (b.atan2(a), (c / r).clamp(-1.0, 1.0).acos());
+    let wrap = |x: f32| (x + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI;
+    let (p, q) = (wrap(base + spread), wrap(base - spread));
+    let phi = if p.abs() <= q.abs() { p } else { q };
+    UnitQuaternion::from_axis_angle(&axis, phi.clamp(-MAX_WRIST_TURN, MAX_WRIST_TURN))
 }
 
 fn dot4(a: [f32; 4], b: [f32; 4]) -> f32 {
@@ -138,41 +166,54 @@ impl PlannedHands {
         (h, w)
     }
 
+    /// The note whose window holds `t`: the nearer of its neighbours in time.
+    fn nearest(&self, hand: usize, t: f64) -> Option<usize> {
+        let ns = &self.notes[hand];
+        let i = ns.partition_point(|(n, _)| n.time_s <= t);
+        match (i.checked_sub(1), ns.get(i)) {
+            (Some(a), Some(b)) => Some(if t - ns[a].0.time_s <= b.0.time_s - t { a } else { i }),
+            (Some(a), None) => Some(a),
+            (None, Some(_)) => Some(0),
+            (None, None) => None,
+        }
+    }
+
     /// The planned stick tip of `hand` at `t`.
     pub fn tip(&self, hand: usize, t: f64) -> [f32; 3] {
         let p = add(predicted_pose(&self.predicted, self.fps, hand, t).stick_tip(), self.offset(hand, t));
-        let ns = &self.notes[hand];
-        if ns.is_empty() {
-            return p;
-        }
-        // The note whose window holds t: the nearer of its neighbours in time.
-        let i = ns.partition_point(|(n, _)| n.time_s <= t);
-        let k = match (i.checked_sub(1), ns.get(i)) {
-            (Some(a), Some(b)) => {
-                if t - ns[a].0.time_s <= b.0.time_s - t {
-                    a
-                } else {
-                    i
-                }
-            }
-            (Some(a), None) => a,
-            (None, _) => 0,
-        };
+        let Some(k) = self.nearest(hand, t) else { return p };
         // Within the note's window the tip is drawn onto the stroke line, the normal through
         // the strike point (fully at the hit, fading out with the window): the predicted tip
         // may slide across the surface as the stick rebounds.
-        let n = &ns[k].0;
+        let n = &self.notes[hand][k].0;
         let (h, w) = self.stroke(hand, k, t);
         let on_line = add(n.point, scale(n.normal, h));
         add(p, scale(sub(on_line, p), w))
     }
 
-    /// The planned hand pose at `t`: the predicted rotation, the grip moved with the tip.
+    /// The planned hand pose at `t`. The grip is the predicted one moved by the smooth
+    /// offset alone; the stroke is made with the wrist: the stick turns about the grip, in
+    /// the plane of the stick and the surface's normal, until the tip is as high above the
+    /// surface as [`Self::tip`] (exactly on it at the hit). So the grip keeps the predicted
+    /// hand's timing instead of stopping with the tip at every contact.
     pub fn pose(&self, hand: usize, t: f64) -> Pose {
         let pred = predicted_pose(&self.predicted, self.fps, hand, t);
+        let grip = add(pred.pos, self.offset(hand, t));
+        let Some(k) = self.nearest(hand, t) else { return Pose { pos: grip, rot: pred.rot } };
+        let n = &self.notes[hand][k].0;
         let tip = self.tip(hand, t);
-        let grip = sub(tip, sub(pred.apply(STICK_TIP_LOCAL), pred.pos));
-        Pose { pos: grip, rot: pred.rot }
+        let height = dot3(sub(tip, n.point), n.normal);
+        let turn = wrist_turn(sub(pred.stick_tip(), pred.pos), sub(grip, n.point), n.normal, height);
+        let r = turn * pred.rotation();
+        let rot = [r.w, r.i, r.j, r.k];
+        // Around the hit the grip also slides the little (within the surface's plane) that
+        // puts the tip on the strike point itself, not just at its height: the frame nearest
+        // the onset shows the tip on the point, a rim's or edge's too.
+        let miss = sub(tip, Pose { pos: grip, rot }.stick_tip());
+        let in_plane = sub(miss, scale(n.normal, dot3(miss, n.normal)));
+        let dwell = self.settings.dwell_s;
+        let near = (2.0 - (t - n.time_s).abs() / dwell).clamp(0.0, 1.0) as f32;
+        Pose { pos: add(grip, scale(in_plane, near)), rot }
     }
 
     /// Both hands at `frames` frames of `fps`.
@@ -251,6 +292,35 @@ mod tests {
             plan.tip(hand, 0.9)[2] - 0.7
         };
         assert!(lift(120) > lift(30) + 0.05, "{} vs {}", lift(120), lift(30));
+    }
+
+    #[test]
+    fn strokes_are_made_with_the_wrist_and_the_grip_keeps_its_path() {
+        // Loud notes on one drum, 0.4 s apart: big lifts for the tip.
+        let notes: Vec<_> = (0..6).map(|k| note(0.5 + k as f64 * 0.4, -0.15, 120)).collect();
+        let plan = planned(&notes);
+        let hand = if plan.notes(0).count() > 0 { 0 } else { 1 };
+        let (mut tip_range, mut grip_range) = ((f32::MAX, f32::MIN), (f32::MAX, f32::MIN));
+        for k in 0..2400 {
+            let t = 0.5 + k as f64 * 1e-3;
+            let pose = plan.pose(hand, t);
+            let (tip, want) = (pose.stick_tip(), plan.tip(hand, t));
+            // The realised tip is as high above the drum as planned, at every instant.
+            assert!((tip[2] - want[2]).abs() < 1e-3, "t {t}: tip height {} vs planned {}", tip[2], want[2]);
+            tip_range = (tip_range.0.min(tip[2]), tip_range.1.max(tip[2]));
+            if t <= 2.5 {
+                grip_range = (grip_range.0.min(pose.pos[2]), grip_range.1.max(pose.pos[2]));
+            }
+        }
+        // The tip lifts by many centimetres; from the first note to the last the grip (still
+        // predicted hands, one drum: a constant offset) stays where it was.
+        assert!(tip_range.1 - tip_range.0 > 0.1, "tip lift {:?}", tip_range);
+        assert!(grip_range.1 - grip_range.0 < 1e-3, "grip moved {:?}", grip_range);
+        // At each hit the tip is on the strike point itself.
+        for n in &notes {
+            let tip = plan.pose(hand, n.time_s).stick_tip();
+            assert!(sub(tip, n.point).iter().all(|d| d.abs() < 1e-4), "{:?} vs {:?}", tip, n.point);
+        }
     }
 
     #[test]
