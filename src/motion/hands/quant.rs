@@ -177,7 +177,7 @@ pub fn gemm(v3: V3, x: &[i32], w: &QTiles, bias: &[f32], out: &mut [f32], xt: &m
 }
 
 /// `gates[s] = init[s] + h[s] W` for each stream `s` (`h` quantized, `[streams][k / 2]`),
-/// [`ROWS`] streams at a time, then a group of four, two, one.
+/// [`ROWS`] streams at a time, then the rest (up to four) together.
 #[inline(always)]
 pub fn recurrent(v3: V3, h: &[i32], w: &QTiles, init: &[&[f32]], gates: &mut [f32], xt: &mut Vec<[i32; ROWS]>) {
     let streams = init.len();
@@ -186,18 +186,15 @@ pub fn recurrent(v3: V3, h: &[i32], w: &QTiles, init: &[&[f32]], gates: &mut [f3
         recurrent_group::<ROWS>(v3, h, w, init, gates, s, xt);
         s += ROWS;
     }
-    let mut xt4 = [[0; 4]; 0].to_vec();
     while s < streams {
-        match streams - s {
-            4.. => recurrent_group::<4>(v3, h, w, init, gates, s, &mut xt4),
-            2 | 3 => recurrent_group::<2>(v3, h, w, init, gates, s, &mut Vec::new()),
+        let rows = (streams - s).min(4);
+        match rows {
+            4 => recurrent_group::<4>(v3, h, w, init, gates, s, &mut Vec::new()),
+            3 => recurrent_group::<3>(v3, h, w, init, gates, s, &mut Vec::new()),
+            2 => recurrent_group::<2>(v3, h, w, init, gates, s, &mut Vec::new()),
             _ => recurrent_group::<1>(v3, h, w, init, gates, s, &mut Vec::new()),
         }
-        s += match streams - s {
-            4.. => 4,
-            2 | 3 => 2,
-            _ => 1,
-        };
+        s += rows;
     }
 }
 
