@@ -72,13 +72,13 @@ pub fn micro<S: Simd, const R: usize>(
     }
 }
 
-/// Interleave `R` rows of `k` values (`row(i)`) into `xt` (`[k][R]`).
+/// Interleave `R` rows of equal length into `xt` (`[len][R]`).
 #[inline(always)]
-pub fn interleave<'a, const R: usize>(k: usize, row: impl Fn(usize) -> &'a [f32], xt: &mut Vec<[f32; R]>) {
+pub fn interleave<T: Copy + Default, const R: usize>(rows: [&[T]; R], xt: &mut Vec<[T; R]>) {
     xt.clear();
-    xt.resize(k, [0.0; R]);
-    for i in 0..R {
-        for (x, &v) in xt.iter_mut().zip(&row(i)[..k]) {
+    xt.resize(rows[0].len(), [T::default(); R]);
+    for (i, row) in rows.iter().enumerate() {
+        for (x, &v) in xt.iter_mut().zip(*row) {
             x[i] = v;
         }
     }
@@ -132,7 +132,7 @@ pub fn recurrent<S: Simd>(
     let hrow = |s: usize| &h[s * k..][..k];
     let mut s = 0;
     while s + REC_ROWS <= streams {
-        interleave::<REC_ROWS>(k, |i| hrow(s + i), xt);
+        interleave::<f32, REC_ROWS>(std::array::from_fn(|i| hrow(s + i)), xt);
         for t in 0..np / TILE {
             let ini: [&[f32]; REC_ROWS] = std::array::from_fn(|i| &init[s + i][t * TILE..]);
             let at: [usize; REC_ROWS] = std::array::from_fn(|i| (s + i) * np + t * TILE);

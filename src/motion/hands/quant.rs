@@ -17,6 +17,8 @@ use std::arch::x86_64::__m256i;
 use pulp::x86::V3;
 use pulp::{cast, f32x8, i16x16, i32x8};
 
+use super::kernels::interleave;
+
 /// Fixed-point scale of the activations.
 pub const QX: f32 = 8192.0;
 /// Columns per tile (two vectors of eight 32-bit sums).
@@ -138,19 +140,6 @@ fn micro<const R: usize>(
 /// Rows per register tile (twelve accumulators, as the `f32` kernels).
 pub const ROWS: usize = 6;
 
-/// Interleave `R` rows of `p` slots into `xt` (`[p][R]`).
-#[inline(always)]
-fn interleave<const R: usize>(rows: [&[i32]; R], xt: &mut Vec<[i32; R]>) {
-    let p = rows[0].len();
-    xt.clear();
-    xt.resize(p, [0; R]);
-    for (i, row) in rows.iter().enumerate() {
-        for (x, &v) in xt.iter_mut().zip(*row) {
-            x[i] = v;
-        }
-    }
-}
-
 /// `out[r] = bias + x[r] W` for every row of `x` (quantized, `[rows][k / 2]` slots); `out` is
 /// `[rows][n_pad]`. Six rows at a time, every row group per weight tile.
 #[inline(always)]
@@ -160,7 +149,7 @@ pub fn gemm(v3: V3, x: &[i32], w: &QTiles, bias: &[f32], out: &mut [f32], xt: &m
     let row = |r: usize| &x[r * p..][..p];
     let groups = rows / ROWS;
     for g in 0..groups {
-        interleave::<ROWS>(std::array::from_fn(|i| row(g * ROWS + i)), xt);
+        interleave::<i32, ROWS>(std::array::from_fn(|i| row(g * ROWS + i)), xt);
         for t in 0..np / TILE {
             let at: [usize; ROWS] = std::array::from_fn(|i| (g * ROWS + i) * np + t * TILE);
             let sc = &w.scale[t * TILE..][..TILE];
@@ -210,7 +199,7 @@ fn recurrent_group<const R: usize>(
     xt: &mut Vec<[i32; R]>,
 ) {
     let (p, np) = (w.k / 2, w.n_pad);
-    interleave::<R>(std::array::from_fn(|i| &h[(first + i) * p..][..p]), xt);
+    interleave::<i32, R>(std::array::from_fn(|i| &h[(first + i) * p..][..p]), xt);
     for t in 0..np / TILE {
         let ini: [&[f32]; R] = std::array::from_fn(|i| &init[first + i][t * TILE..]);
         let at: [usize; R] = std::array::from_fn(|i| (first + i) * np + t * TILE);
