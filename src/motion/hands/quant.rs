@@ -5,7 +5,8 @@
 //! - Activations (hidden states, `|x| < 1`) are rounded to multiples of `1 / QX`.
 //! - Each weight column `c` gets its own scale `s_c`, the largest for which the column's
 //!   rounded weights fit 16 bits and `QX * sum_k |q_kc|` fits 31 bits, so no sum can
-//!   overflow whatever the activations. Columns of 128 and 256 weights keep 13 to 15 bits.
+//!   overflow whatever the activations. With the shipped weights a column's largest weight
+//!   keeps 13.3 to 14.8 bits in the recurrences, 12.5 to 13.7 in layer 2's projection.
 //! - A product comes back as `init + acc * (1 / (QX s_c))` in `f32`; the gates, cell and
 //!   output layer stay `f32`.
 //!
