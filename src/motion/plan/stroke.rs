@@ -324,6 +324,27 @@ mod tests {
     }
 
     #[test]
+    fn the_wrist_turn_reaches_the_height_or_stops_short_without_nan() {
+        let n = [0.0, 0.0, 1.0];
+        // A 28 cm stick pointing forward and 20 degrees down, the grip 10 cm above the plane.
+        let v = [0.0, 0.28 * 20f32.to_radians().cos(), -0.28 * 20f32.to_radians().sin()];
+        let from_plane = [0.0, 0.0, 0.1];
+        let height = |q: nalgebra::UnitQuaternion<f32>| {
+            let tip = q * nalgebra::Vector3::from(v);
+            from_plane[2] + tip.z
+        };
+        for want in [0.0f32, 0.05, 0.15, 0.3] {
+            let got = height(wrist_turn(v, from_plane, n, want));
+            assert!((got - want).abs() < 1e-4, "height {want}: {got}");
+        }
+        // Out of reach: turned as far as allowed, upward, still finite.
+        let q = wrist_turn(v, from_plane, n, 1.0);
+        assert!(q.angle() <= MAX_WRIST_TURN + 1e-5 && height(q) > 0.3, "{} {}", q.angle(), height(q));
+        // A stick along the normal has no pitch axis: no turn.
+        assert_eq!(wrist_turn([0.0, 0.0, -0.28], from_plane, n, 0.05), nalgebra::UnitQuaternion::identity());
+    }
+
+    #[test]
     fn a_moved_kit_moves_the_strikes() {
         let a = planned(&[note(1.0, -0.15, 100)]);
         let mut moved = note(1.0, -0.15, 100);
