@@ -1,7 +1,8 @@
 //! The hands drumsim renders (the hand model, then strike planning, through the same
 //! `perform` as `drumsim render`) against the teacher on Groove MIDI validation takes: beat
 //! alignment of the network's own hands, of the planned hands and of the teacher; L1 of the
-//! planned hands against the teacher; strikes on the surface within one frame.
+//! planned hands against the teacher; strikes on the surface within one frame; how far the
+//! planned sticks turn from the predicted rotation.
 //! Run: `cargo run --release --example planned_hands [STEP]` (every STEP-th validation take,
 //! default 6: 21 takes).
 
@@ -32,6 +33,8 @@ fn main() {
     let model = HandModel::load(Path::new("assets/hands/best.bpk")).unwrap();
     let lib = Library::load(Path::new("assets/upper-library.bin")).unwrap();
     let (mut raw, mut planned, mut teach) = (Vec::new(), Vec::new(), Vec::new());
+    // How far the planned stick turned from the predicted rotation, degrees, every frame.
+    let mut turns: Vec<f32> = Vec::new();
     let (mut l1, mut n, mut on, mut total) = ([0.0f64; 2], 0usize, 0.0, 0usize);
     for path in &files {
         let perf = read_file(path, &ReadOptions { channel: 10 }).unwrap();
@@ -58,6 +61,12 @@ fn main() {
                         / 3.0
                 })
                 .sum::<f64>();
+        }
+        for (a, b) in pred.iter().zip(&motion.frames) {
+            for s in 0..2 {
+                let d: f32 = (0..4).map(|i| a[s].rot[i] * b.hands[s].rot[i]).sum::<f32>().abs().min(1.0);
+                turns.push(2.0 * d.acos().to_degrees());
+            }
         }
         n += pred.len();
         let (notes, _) = drumsim::motion::corpus::hand_notes(&perf, &map, &kit).unwrap();
@@ -87,6 +96,15 @@ fn main() {
     println!("  the network's hands: {}", fmt(&raw));
     println!("  planned hands:       {}", fmt(&planned));
     println!("  the teacher:         {}", fmt(&teach));
+    turns.sort_by(|a, b| a.total_cmp(b));
+    let q = |p: f64| turns[((turns.len() - 1) as f64 * p) as usize];
+    println!(
+        "wrist turn from the predicted rotation: median {:.1} deg, 90th percentile {:.1}, 99th {:.1}, max {:.1}",
+        q(0.5),
+        q(0.9),
+        q(0.99),
+        q(1.0)
+    );
     println!(
         "planned hands vs the teacher: L1 {:.4} m left, {:.4} m right; strikes {on:.0} of {total} ({:.2} %)",
         l1[0] / n as f64,
