@@ -63,8 +63,8 @@ fn main() {
                 .sum::<f64>();
         }
         for (a, b) in pred.iter().zip(&motion.frames) {
-            for s in 0..2 {
-                let d: f32 = (0..4).map(|i| a[s].rot[i] * b.hands[s].rot[i]).sum::<f32>().abs().min(1.0);
+            for (pa, pb) in a.iter().zip(&b.hands) {
+                let d: f32 = pa.rot.iter().zip(&pb.rot).map(|(x, y)| x * y).sum::<f32>().abs().min(1.0);
                 turns.push(2.0 * d.acos().to_degrees());
             }
         }
