@@ -152,6 +152,10 @@ enum Command {
         /// Stop cleanly (resumable) after this many minutes.
         #[arg(long)]
         max_minutes: Option<f64>,
+        /// Weight of the velocity term added to the masked MSE (grip positions' frame
+        /// differences; 0 is the paper's loss alone). Default: the shipped model's.
+        #[arg(long)]
+        velocity_weight: Option<f32>,
         /// Do not train: measure OUT/best.bpk against the teacher on the validation set
         /// (L1 per hand, beat alignment) and print it as JSON.
         #[arg(long)]
@@ -296,7 +300,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             println!("{}", serde_json::to_string(&m)?);
             Ok(())
         }
-        Command::Train { train, val, gmd, mocap, out, epochs, max_minutes, report } => {
+        Command::Train { train, val, gmd, mocap, out, epochs, max_minutes, velocity_weight, report } => {
             use drumsim::motion::{corpus, hands, mocap as mc};
             let load = |path: &PathBuf, split: &str| -> anyhow::Result<Vec<hands::Example>> {
                 if !path.exists() {
@@ -324,7 +328,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 train_set.push(hands::Example { id: e.id, roll: e.roll, hands: e.hands });
             }
             std::fs::create_dir_all(&out)?;
-            let r = hands::run_train(&train_set, &val_set, &out, epochs, max_minutes)?;
+            let r = hands::run_train(&train_set, &val_set, &out, epochs, max_minutes, velocity_weight)?;
             println!(
                 "epoch {}: best validation loss {:.5} at epoch {} -> {}",
                 r.epoch,

@@ -198,6 +198,20 @@ fn smoke_training_lowers_validation_loss_and_resumes() {
     assert!(stopped.stopped_by_budget);
     assert_eq!(stopped.epoch, 28);
 
+    // A different loss (the velocity term) resumes the weights but measures the best afresh.
+    let relossed = train(
+        &train_set,
+        &val_set,
+        TrainConfig { epochs: 29, velocity_weight: 1.0, ..cfg.clone() },
+        &dir,
+        false,
+        |_| {},
+    )
+    .unwrap();
+    assert_eq!(relossed.loss_changed_after, vec![28]);
+    assert_eq!(relossed.best_epoch, 29);
+    assert!(relossed.val_loss > resumed.val_loss, "the velocity term adds to the loss");
+
     // The best checkpoint loads for inference and its predictions beat the mean pose.
     let model = HandModel::load(&dir.join("best.bpk")).unwrap();
     let ex = &val_set[0];
@@ -277,4 +291,65 @@ fn a_changed_teacher_changes_the_data_digest() {
     assert_eq!(data_digest(&a), data_digest(&b), "the same material, the same digest");
     b[1].hands[7][3] += 1e-6;
     assert_ne!(data_digest(&a), data_digest(&b), "one target moved");
+}
+
+/// `[1, t, 14]` tensor of a trajectory.
+fn traj_tensor(v: &[[f32; HAND_VALUES]]) -> Tensor<3> {
+    let flat: Vec<f32> = v.iter().flatten().copied().collect();
+    Tensor::from_data(TensorData::new(flat, [1, v.len(), HAND_VALUES]), &Device::flex())
+}
+
+#[test]
+fn the_velocity_term_sees_timing_and_not_an_offset() {
+    use drumsim::motion::hands::model::{masked_mse, masked_velocity_mse};
+    let t = 40;
+    // A stroke on the left grip's height (channel 2): a bump centred on frame 20.
+    let bump = |shift: f32| -> Vec<[f32; HAND_VALUES]> {
+        (0..t)
+            .map(|f| {
+                let mut v = [0.0; HAND_VALUES];
+                v[2] = (-((f as f32 - 20.0 - shift) / 3.0).powi(2)).exp();
+                v
+            })
+            .collect()
+    };
+    let target = bump(0.0);
+    let mut weights = [0.0f32; HAND_VALUES];
+    weights[2] = 1.0;
+    let w = Tensor::<3>::from_data(TensorData::new(weights.to_vec(), [1, 1, HAND_VALUES]), &Device::flex());
+    let mask = |valid: usize| {
+        let m: Vec<f32> = (0..t).map(|f| if f < valid { 1.0 } else { 0.0 }).collect();
+        Tensor::<3>::from_data(TensorData::new(m, [1, t, 1]), &Device::flex())
+    };
+    let vel = |pred: &[[f32; HAND_VALUES]], valid: usize| -> f32 {
+        masked_velocity_mse(traj_tensor(pred), traj_tensor(&target), mask(valid), w.clone(), 1).into_scalar::<f32>()
+    };
+    let mse =
+        |pred: &[[f32; HAND_VALUES]]| masked_mse(traj_tensor(pred), traj_tensor(&target), mask(t)).into_scalar::<f32>();
+
+    // The whole trajectory 5 cm higher: a position error, no velocity error.
+    let raised: Vec<_> = target
+        .iter()
+        .map(|v| {
+            let mut v = *v;
+            v[2] += 0.05;
+            v
+        })
+        .collect();
+    assert!(mse(&raised) > 1e-4 && vel(&raised, t) < 1e-12, "mse {} vel {}", mse(&raised), vel(&raised, t));
+
+    // The stroke a frame late: the velocity term is the mean squared difference of the
+    // frame differences over the 39 pairs, computed here by hand.
+    let late = bump(1.0);
+    let d = |x: &[[f32; HAND_VALUES]], f: usize| x[f + 1][2] - x[f][2];
+    let by_hand: f32 = (0..t - 1).map(|f| (d(&late, f) - d(&target, f)).powi(2)).sum::<f32>() / (t - 1) as f32;
+    assert!(by_hand > 1e-3);
+    assert!((vel(&late, t) - by_hand).abs() < 1e-6 * by_hand.max(1.0), "{} vs {by_hand}", vel(&late, t));
+
+    // Padding: frames past the mask do not count, whatever they hold.
+    let mut padded = target.clone();
+    for v in &mut padded[30..] {
+        v[2] = 9.0;
+    }
+    assert!(vel(&padded, 30) < 1e-12, "padded frames leaked: {}", vel(&padded, 30));
 }

@@ -51,3 +51,21 @@ pub fn masked_mse(pred: Tensor<3>, target: Tensor<3>, mask: Tensor<3>) -> Tensor
     let err = (pred - target).square() * mask;
     err.sum() / valid.mul_scalar(channels)
 }
+
+/// Masked MSE of the frame-to-frame differences, channel `c` weighted by `weights[c]`
+/// (`[1, 1, 14]`; 0 leaves a channel out), averaged over valid frame pairs and the channels
+/// with a non-zero weight (`channels`). A pair is valid when both its frames are.
+pub fn masked_velocity_mse(
+    pred: Tensor<3>,
+    target: Tensor<3>,
+    mask: Tensor<3>,
+    weights: Tensor<3>,
+    channels: usize,
+) -> Tensor<1> {
+    let t = pred.dims()[1];
+    let diff = |x: Tensor<3>| x.clone().narrow(1, 1, t - 1) - x.narrow(1, 0, t - 1);
+    let pairs = mask.clone().narrow(1, 1, t - 1) * mask.narrow(1, 0, t - 1);
+    let valid = pairs.clone().sum().clamp_min(1.0);
+    let err = (diff(pred) - diff(target)).square() * weights * pairs;
+    err.sum() / valid.mul_scalar(channels.max(1) as f64)
+}

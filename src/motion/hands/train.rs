@@ -21,7 +21,7 @@ use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 
-use super::model::{masked_mse, HandNet};
+use super::model::{masked_mse, masked_velocity_mse, HandNet};
 use super::{Example, HandsError, Normalisation, ROLL_COLUMNS};
 use crate::motion::HAND_VALUES;
 
@@ -44,6 +44,11 @@ pub struct TrainConfig {
     pub seed: u64,
     /// Wall-clock budget of this call; when spent, the state is saved and training stops.
     pub max_minutes: Option<f64>,
+    /// Weight of the velocity term added to the masked MSE: the masked MSE of the grip
+    /// positions' frame-to-frame differences, each coordinate divided by the standard
+    /// deviation of its differences over the training set (0: the paper's loss alone).
+    #[serde(default)]
+    pub velocity_weight: f32,
 }
 
 impl Default for TrainConfig {
@@ -59,6 +64,7 @@ impl Default for TrainConfig {
             dropout: 0.1,
             seed: 0,
             max_minutes: None,
+            velocity_weight: 0.0,
         }
     }
 }
@@ -72,6 +78,9 @@ impl TrainConfig {
         let ok = self.lr > 0.0 && self.lr.is_finite() && self.clip_norm > 0.0 && self.weight_decay >= 0.0;
         if !ok {
             return bad("lr and clip_norm must be positive, weight_decay non-negative");
+        }
+        if !(self.velocity_weight >= 0.0 && self.velocity_weight.is_finite()) {
+            return bad("velocity_weight must be a non-negative number");
         }
         if !(0.0..1.0).contains(&self.dropout) {
             return bad("dropout must lie in [0, 1)");
@@ -117,6 +126,10 @@ pub struct TrainReport {
     /// best checkpoint was measured afresh from there.
     #[serde(default)]
     pub data_changed_after: Vec<usize>,
+    /// Epochs after which training resumed with a different loss (`velocity_weight`): the
+    /// best checkpoint was measured afresh from there.
+    #[serde(default)]
+    pub loss_changed_after: Vec<usize>,
 }
 
 /// A digest (FNV-1a over the ids and every target value's bits) of a set of examples, so a
@@ -204,15 +217,61 @@ fn fixed_crops(examples: &[Example], window: usize) -> Vec<Crop> {
     examples.iter().enumerate().flat_map(|(e, ex)| (0..ex.roll.len()).step_by(window).map(move |s| (e, s))).collect()
 }
 
-/// Masked MSE over `crops`, frame-weighted, with the module in evaluation mode.
-fn evaluate(model: &HandNet, examples: &[Example], crops: &[Crop], cfg: &TrainConfig, norm: &Normalisation) -> f32 {
+/// The grip-position channels of the 14 hand values (left x, y, z, right x, y, z).
+const POSITION_CHANNELS: [usize; 6] = [0, 1, 2, 7, 8, 9];
+
+/// The per-channel weights of the velocity term: `velocity_weight / var(diff)` on the grip
+/// positions, where `diff` is the frame-to-frame difference of the normalised target over
+/// the training set; 0 elsewhere.
+pub fn velocity_weights(examples: &[Example], norm: &Normalisation, velocity_weight: f32) -> [f32; HAND_VALUES] {
+    let mut w = [0.0f32; HAND_VALUES];
+    if velocity_weight == 0.0 {
+        return w;
+    }
+    let (mut sq, mut n) = ([0.0f64; HAND_VALUES], 0usize);
+    for ex in examples {
+        for pair in ex.hands.windows(2) {
+            let (a, b) = (norm.normalise(&pair[0]), norm.normalise(&pair[1]));
+            for c in POSITION_CHANNELS {
+                sq[c] += ((b[c] - a[c]) as f64).powi(2);
+            }
+            n += 1;
+        }
+    }
+    for c in POSITION_CHANNELS {
+        let var = (sq[c] / n.max(1) as f64).max(1e-12);
+        w[c] = (velocity_weight as f64 / var) as f32;
+    }
+    w
+}
+
+/// The training objective: masked MSE plus, when `vel` has a non-zero weight, the
+/// velocity term ([`velocity_weights`]).
+fn objective(pred: Tensor<3>, y: Tensor<3>, m: Tensor<3>, vel: &[f32; HAND_VALUES]) -> Tensor<1> {
+    let used = vel.iter().filter(|w| **w > 0.0).count();
+    if used == 0 || pred.dims()[1] < 2 {
+        return masked_mse(pred, y, m);
+    }
+    let w = Tensor::from_data(TensorData::new(vel.to_vec(), [1, 1, HAND_VALUES]), &pred.device());
+    masked_mse(pred.clone(), y.clone(), m.clone()) + masked_velocity_mse(pred, y, m, w, used)
+}
+
+/// The objective over `crops`, frame-weighted, with the module in evaluation mode.
+fn evaluate(
+    model: &HandNet,
+    examples: &[Example],
+    crops: &[Crop],
+    cfg: &TrainConfig,
+    norm: &Normalisation,
+    vel: &[f32; HAND_VALUES],
+) -> f32 {
     let model = model.valid();
     let device = Device::flex();
     let (mut sum, mut frames) = (0.0f64, 0.0f64);
     for chunk in crops.chunks(cfg.batch) {
         let (x, y, m) = batch_tensors(examples, chunk, cfg.window, norm, &device);
         let n = m.clone().sum().into_scalar::<f32>() as f64;
-        let loss = masked_mse(model.forward(x), y, m).into_scalar::<f32>() as f64;
+        let loss = objective(model.forward(x), y, m, vel).into_scalar::<f32>() as f64;
         sum += loss * n;
         frames += n;
     }
@@ -362,6 +421,11 @@ pub fn train(
         }
         model = model.try_load_file(&paths.last).map_err(|e| cerr(&paths.last, e.to_string()))?.train();
         optim = optim.load(&paths.last_optim).map_err(|e| cerr(&paths.last_optim, e.to_string()))?;
+        if st.config.velocity_weight != cfg.velocity_weight {
+            // A different objective: losses measured under the old one do not compare.
+            st.loss_changed_after.push(st.epoch);
+            st.best_val_loss = f32::MAX;
+        }
         st.config = cfg.clone();
         st.stopped_by_budget = false;
         let digest = data_digest(val);
@@ -375,7 +439,8 @@ pub fn train(
         st
     } else {
         let normalisation = Normalisation::fit(train);
-        let initial = evaluate(&model, val, &val_crops, &cfg, &normalisation);
+        let vel = velocity_weights(train, &normalisation, cfg.velocity_weight);
+        let initial = evaluate(&model, val, &val_crops, &cfg, &normalisation, &vel);
         TrainReport {
             epoch: 0,
             best_epoch: 0,
@@ -389,9 +454,11 @@ pub fn train(
             initial_val_loss: initial,
             data_digest: data_digest(val),
             data_changed_after: Vec::new(),
+            loss_changed_after: Vec::new(),
         }
     };
     let norm = state.normalisation.clone();
+    let vel = velocity_weights(train, &norm, cfg.velocity_weight);
     let over_budget = || cfg.max_minutes.is_some_and(|m| start.elapsed().as_secs_f64() > m * 60.0);
 
     while state.epoch < cfg.epochs {
@@ -418,7 +485,7 @@ pub fn train(
                 break;
             }
             let (x, y, m) = batch_tensors(train, batch, cfg.window, &norm, &device);
-            let loss = masked_mse(model.forward(x), y, m);
+            let loss = objective(model.forward(x), y, m, &vel);
             let value = loss.clone().into_scalar::<f32>();
             let mut grads = GradientsParams::from_grads(loss.backward(), &model);
             clip_global_norm(&model, &mut grads, cfg.clip_norm);
@@ -441,7 +508,7 @@ pub fn train(
             return Ok(state);
         }
         let train_loss = (loss_sum / n.max(1) as f64) as f32;
-        let val_loss = evaluate(&model, val, &val_crops, &cfg, &norm);
+        let val_loss = evaluate(&model, val, &val_crops, &cfg, &norm, &vel);
         state.epoch = epoch;
         state.val_loss = val_loss;
         state.train_loss_history.push(train_loss);
@@ -481,7 +548,15 @@ pub fn run_train(
     out_dir: &Path,
     epochs: usize,
     max_minutes: Option<f64>,
+    velocity_weight: Option<f32>,
 ) -> Result<TrainReport, HandsError> {
-    let cfg = TrainConfig { epochs, max_minutes, ..TrainConfig::default() };
+    let defaults = TrainConfig::default();
+    // Unless asked otherwise, a resumed run keeps the loss it was trained with.
+    let resumed = || -> Option<f32> {
+        let text = std::fs::read_to_string(CheckpointPaths::new(out_dir).last_json).ok()?;
+        Some(serde_json::from_str::<TrainReport>(&text).ok()?.config.velocity_weight)
+    };
+    let velocity_weight = velocity_weight.or_else(resumed).unwrap_or(defaults.velocity_weight);
+    let cfg = TrainConfig { epochs, max_minutes, velocity_weight, ..defaults };
     train(train_set, val_set, cfg, out_dir, true, |_| {})
 }
