@@ -2,7 +2,8 @@
 //! peaks of both (DRUMS' beat alignment counts every peak), the histogram of matched
 //! delays in frames, and the normalised MSE of each of the 14 output channels.
 //! Needs `data/corpus-validation.bin` (`drumsim corpus --split validation`).
-//! Run: `cargo run --release --example hand_model_diagnostics`.
+//! Run: `cargo run --release --example hand_model_diagnostics [WEIGHTS]` (default
+//! `assets/hands/best.bpk`; its `.json` sidecar beside it).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -16,9 +17,10 @@ use drumsim::motion::track::values_to_hands;
 const FOOT_COLUMNS: [usize; 2] = [0, 5];
 
 fn main() {
-    let model = HandModel::load(Path::new("assets/hands/best.bpk")).expect("assets/hands/best.bpk");
-    let side = Path::new("assets/hands/best.json");
-    let sidecar: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(side).expect("best.json")).unwrap();
+    let weights = std::env::args().nth(1).unwrap_or_else(|| "assets/hands/best.bpk".into());
+    let model = HandModel::load(Path::new(&weights)).expect("hand model weights");
+    let side = Path::new(&weights).with_extension("json");
+    let sidecar: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(side).expect("sidecar")).unwrap();
     let std: Vec<f64> =
         sidecar["normalisation"]["std"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
     let val = load_examples(Path::new("data/corpus-validation.bin")).expect("data/corpus-validation.bin");

@@ -3,8 +3,8 @@
 //! alignment of the network's own hands, of the planned hands and of the teacher; L1 of the
 //! planned hands against the teacher; strikes on the surface within one frame; how far the
 //! planned sticks turn from the predicted rotation.
-//! Run: `cargo run --release --example planned_hands [STEP]` (every STEP-th validation take,
-//! default 6: 21 takes).
+//! Run: `cargo run --release --example planned_hands [STEP [WEIGHTS]]` (every STEP-th
+//! validation take, default 6: 21 takes; weights default `assets/hands/best.bpk`).
 
 use drumsim::eval::beat::{beat_alignment, BeatParams};
 use drumsim::eval::motion::{hand_onsets_s, mean_sd_median};
@@ -30,7 +30,8 @@ fn main() {
         .collect();
     let map = NoteMap::builtin("roland-td").unwrap();
     let kit = Kit::builtin_default();
-    let model = HandModel::load(Path::new("assets/hands/best.bpk")).unwrap();
+    let weights = std::env::args().nth(2).unwrap_or_else(|| "assets/hands/best.bpk".into());
+    let model = HandModel::load(Path::new(&weights)).unwrap();
     let lib = Library::load(Path::new("assets/upper-library.bin")).unwrap();
     let (mut raw, mut planned, mut teach) = (Vec::new(), Vec::new(), Vec::new());
     // How far the planned stick turned from the predicted rotation, degrees, every frame.

@@ -156,6 +156,9 @@ enum Command {
         /// differences; 0 is the paper's loss alone). Default: the shipped model's.
         #[arg(long)]
         velocity_weight: Option<f32>,
+        /// AdamW learning rate (default the paper's 1e-3; a lower one for a final phase).
+        #[arg(long)]
+        lr: Option<f64>,
         /// Do not train: measure OUT/best.bpk against the teacher on the validation set
         /// (L1 per hand, beat alignment) and print it as JSON.
         #[arg(long)]
@@ -300,7 +303,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             println!("{}", serde_json::to_string(&m)?);
             Ok(())
         }
-        Command::Train { train, val, gmd, mocap, out, epochs, max_minutes, velocity_weight, report } => {
+        Command::Train { train, val, gmd, mocap, out, epochs, max_minutes, velocity_weight, lr, report } => {
             use drumsim::motion::{corpus, hands, mocap as mc};
             let load = |path: &PathBuf, split: &str| -> anyhow::Result<Vec<hands::Example>> {
                 if !path.exists() {
@@ -328,7 +331,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 train_set.push(hands::Example { id: e.id, roll: e.roll, hands: e.hands });
             }
             std::fs::create_dir_all(&out)?;
-            let r = hands::run_train(&train_set, &val_set, &out, epochs, max_minutes, velocity_weight)?;
+            let r = hands::run_train(&train_set, &val_set, &out, epochs, max_minutes, velocity_weight, lr)?;
             println!(
                 "epoch {}: best validation loss {:.5} at epoch {} -> {}",
                 r.epoch,

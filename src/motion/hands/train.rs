@@ -549,14 +549,17 @@ pub fn run_train(
     epochs: usize,
     max_minutes: Option<f64>,
     velocity_weight: Option<f32>,
+    lr: Option<f64>,
 ) -> Result<TrainReport, HandsError> {
     let defaults = TrainConfig::default();
-    // Unless asked otherwise, a resumed run keeps the loss it was trained with.
-    let resumed = || -> Option<f32> {
-        let text = std::fs::read_to_string(CheckpointPaths::new(out_dir).last_json).ok()?;
-        Some(serde_json::from_str::<TrainReport>(&text).ok()?.config.velocity_weight)
-    };
-    let velocity_weight = velocity_weight.or_else(resumed).unwrap_or(defaults.velocity_weight);
-    let cfg = TrainConfig { epochs, max_minutes, velocity_weight, ..defaults };
+    // Unless asked otherwise, a resumed run keeps the loss and learning rate it had.
+    let resumed = std::fs::read_to_string(CheckpointPaths::new(out_dir).last_json)
+        .ok()
+        .and_then(|text| serde_json::from_str::<TrainReport>(&text).ok())
+        .map(|r| r.config);
+    let velocity_weight =
+        velocity_weight.or(resumed.as_ref().map(|c| c.velocity_weight)).unwrap_or(defaults.velocity_weight);
+    let lr = lr.or(resumed.as_ref().map(|c| c.lr)).unwrap_or(defaults.lr);
+    let cfg = TrainConfig { epochs, max_minutes, velocity_weight, lr, ..defaults };
     train(train_set, val_set, cfg, out_dir, true, |_| {})
 }
