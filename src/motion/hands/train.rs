@@ -25,7 +25,8 @@ use super::model::{masked_mse, masked_velocity_mse, HandNet};
 use super::{Example, HandsError, Normalisation, ROLL_COLUMNS};
 use crate::motion::HAND_VALUES;
 
-/// Training settings; the defaults are the paper's.
+/// Training settings; the defaults are the paper's, plus drumsim's velocity term
+/// (`velocity_weight` 1; 0 gives the paper's loss alone).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrainConfig {
     /// Epochs to reach (a resumed run continues up to this count).
@@ -47,6 +48,7 @@ pub struct TrainConfig {
     /// Weight of the velocity term added to the masked MSE: the masked MSE of the grip
     /// positions' frame-to-frame differences, each coordinate divided by the standard
     /// deviation of its differences over the training set (0: the paper's loss alone).
+    /// Checkpoints written before the term existed read as 0.
     #[serde(default)]
     pub velocity_weight: f32,
 }
@@ -64,7 +66,7 @@ impl Default for TrainConfig {
             dropout: 0.1,
             seed: 0,
             max_minutes: None,
-            velocity_weight: 0.0,
+            velocity_weight: 1.0,
         }
     }
 }
