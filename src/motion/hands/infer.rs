@@ -172,6 +172,11 @@ impl HandModel {
         Self { packed: Packed::new(weights), simd: SimdNet::new(weights), norm, fma: fma_available() }
     }
 
+    /// The per-channel mean and standard deviation the outputs are normalised by.
+    pub fn normalisation(&self) -> &Normalisation {
+        &self.norm
+    }
+
     /// Hidden units per direction.
     pub fn hidden(&self) -> usize {
         self.packed.hidden
