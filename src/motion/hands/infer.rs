@@ -9,9 +9,9 @@
 //!   over all of layer 2's states at the end. [`HandModel::predict`] does the three big
 //!   products in 16-bit fixed point ([`super::quant`], hidden a multiple of 16): 3 minutes
 //!   (10,800 frames) take about 130-150 ms here, against 170-195 ms in `f32`
-//!   ([`HandModel::forward_streams`]), and differ from the exact `f32` pass by 2.6e-3 of a
-//!   normalised output with six streams, up to 4.6e-3 with fewer (under a millimetre;
-//!   `tests/hands.rs`).
+//!   ([`HandModel::forward_streams`]), and differ from the exact `f32` pass by 4.7e-3 of a
+//!   normalised output with six streams and the shipped weights, at most 0.77 mm of grip
+//!   with fewer (`tests/hands.rs`).
 //! - Elsewhere, the portable path below: plain loops over fixed-size arrays that LLVM
 //!   vectorises for the default target (SSE2 on x86-64), the sequence run as one stream.
 //!   - Layer-1 input projection: the roll is binary and sparse, so it is the bias plus the
