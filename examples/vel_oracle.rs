@@ -3,9 +3,12 @@
 //! velocities shuffled among the notes of each note number (or all set to that number's
 //! mean), and the K grip trajectories are averaged: what an MSE predictor that cannot see
 //! velocity would converge to, were velocity unpredictable within an instrument. Prints
-//! DRUMS' beat alignment of the teacher, of one shuffled teacher and of the average, and
-//! how far a shuffle moves the grips.
-//! Run: `cargo run --release --example vel_oracle [K [STEP [shuffle|mean]]]` (8, 3, shuffle).
+//! DRUMS' beat alignment of the teacher, of one changed teacher and of the average, and
+//! how far a shuffle moves the grips. `seed` keeps the velocities and gives each of the K
+//! teachers another seed of human variation instead (which no input shows either); `both`
+//! does both.
+//! Run: `cargo run --release --example vel_oracle [K [STEP [shuffle|mean|seed|both]]]`
+//! (8, 3, shuffle).
 use drumsim::eval::beat::{beat_alignment, BeatParams};
 use drumsim::eval::motion::mean_sd_median;
 use drumsim::kit::Kit;
@@ -74,7 +77,10 @@ fn main() {
                         _ => unreachable!(),
                     })
                     .collect();
-                if mode == "shuffle" {
+                if mode == "seed" {
+                    continue;
+                }
+                if mode == "shuffle" || mode == "both" {
                     for j in (1..vels.len()).rev() {
                         vels.swap(j, (next() % (j as u64 + 1)) as usize);
                     }
@@ -88,7 +94,8 @@ fn main() {
                     }
                 }
             }
-            let t = teach(&pk, &map, &kit, seed).unwrap();
+            let seed_r = if mode == "seed" || mode == "both" { seed ^ next() } else { seed };
+            let t = teach(&pk, &map, &kit, seed_r).unwrap();
             assert_eq!(t.motion.frames.len(), n);
             let g = [grips(&t, 0), grips(&t, 1)];
             if r == 0 {
@@ -120,7 +127,7 @@ fn main() {
     };
     println!("{} takes, K = {k}, {mode}", rows.len());
     show("teacher, true velocities", &orig);
-    show("teacher, velocities changed once", &one);
+    show("one changed teacher", &one);
     show("average of K teachers", &avg);
     println!(
         "grip moved by a shuffle: mean {:.2} mm per coordinate",
