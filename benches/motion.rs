@@ -7,18 +7,17 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use drumsim::kit::Kit;
 use drumsim::midi::{read_file, NoteMap, ReadOptions};
 use drumsim::motion::hands::HandModel;
-use drumsim::motion::pipeline::{default_weights, model_hands, perform, shipped_library};
+use drumsim::motion::pipeline::{model_hands, perform, shipped_library};
 use std::hint::black_box;
 use std::path::Path;
 
-const SONG: &str = "../shared/data/gmd/drummer8/session2/37_rock_112_beat_4-4.mid";
+const SONG: &str = "data/gmd/drummer8/session2/37_rock_112_beat_4-4.mid";
 
 fn bench(c: &mut Criterion) {
     let map = NoteMap::builtin("roland-td").unwrap();
     let kit = Kit::builtin_default();
     let perf = read_file(Path::new(SONG), &ReadOptions { channel: 10 }).expect("the Groove MIDI file");
-    let weights = default_weights().expect("assets/hands/best.bpk");
-    let model = HandModel::load(&weights).unwrap();
+    let model = HandModel::shipped();
     let library = shipped_library().unwrap();
     let predicted = model_hands(&model, &perf, &map);
     let mut g = c.benchmark_group("motion_stage");

@@ -141,7 +141,7 @@ fn modal_bank(c: &mut Criterion) {
 fn gmd_path() -> PathBuf {
     let root = std::env::var_os("DRUMSIM_GMD")
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/gmd"));
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/gmd"));
     root.join(SONG)
 }
 

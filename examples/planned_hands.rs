@@ -16,7 +16,7 @@ use drumsim::motion::pipeline::{model_hands, perform, teacher_hands};
 use drumsim::motion::upper::Library;
 use std::path::Path;
 
-const GMD: &str = "../shared/data/gmd";
+const GMD: &str = "data/gmd";
 
 fn main() {
     let step: usize = std::env::args().nth(1).map(|s| s.parse().unwrap()).unwrap_or(6);

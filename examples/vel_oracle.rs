@@ -17,7 +17,7 @@ use drumsim::motion::corpus::dataset::seed_of;
 use drumsim::motion::corpus::teach;
 use std::path::Path;
 
-const GMD: &str = "../shared/data/gmd";
+const GMD: &str = "data/gmd";
 
 fn main() {
     let k: usize = std::env::args().nth(1).map(|s| s.parse().unwrap()).unwrap_or(8);

@@ -4,8 +4,18 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// `drumsim --version`: the version and the optional features this binary was built with.
+#[cfg(feature = "jack")]
+const VERSION: &str =
+    concat!(env!("CARGO_PKG_VERSION"), " (features: jack; hand model, kits, maps and retrieval library compiled in)");
+#[cfg(not(feature = "jack"))]
+const VERSION: &str = concat!(
+    env!("CARGO_PKG_VERSION"),
+    " (features: none, ALSA only; hand model, kits, maps and retrieval library compiled in)"
+);
+
 #[derive(Parser)]
-#[command(name = "drumsim", version, about = "A physically simulated drummer: drum MIDI in, sound and motion out")]
+#[command(name = "drumsim", version = VERSION, about = "A physically simulated drummer: drum MIDI in, sound and motion out")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -28,7 +38,7 @@ enum Command {
         out: PathBuf,
         #[arg(long, value_enum, default_value_t = SoundMode::Direct)]
         sound: SoundMode,
-        /// Kit config file (default: the built-in kit, config/kits/default.toml).
+        /// Kit: a built-in kit (default, rearranged) or a kit file (default: default).
         #[arg(long)]
         kit: Option<PathBuf>,
         /// Note map: gm, roland-td, yamaha-dtx, or a file.
@@ -43,9 +53,14 @@ enum Command {
         /// Sound only: do not write SONG.motion.json, SONG.bvh and SONG.glb.
         #[arg(long)]
         no_motion: bool,
-        /// Hand model weights (default: assets/hands/best.bpk).
-        #[arg(long)]
+        /// Hand model weights (default: $DRUMSIM_ASSETS/hands/best.bpk if it exists, else the
+        /// model compiled into this binary).
+        #[arg(long, conflicts_with = "teacher")]
         weights: Option<PathBuf>,
+        /// Hands from the corpus teacher (the hand model's training target) instead of the
+        /// hand model.
+        #[arg(long)]
+        teacher: bool,
     },
     /// Play a live MIDI input (e-kit, keyboard) through the speakers.
     Live {
@@ -104,7 +119,7 @@ enum Command {
     /// performance of a Groove MIDI split, saved as one dataset file.
     Corpus {
         /// The Groove MIDI Dataset folder (with info.csv).
-        #[arg(long, default_value = "../shared/data/gmd")]
+        #[arg(long, default_value = "data/gmd")]
         gmd: PathBuf,
         #[arg(long, value_parser = ["train", "validation", "test"], default_value = "train")]
         split: String,
@@ -139,7 +154,7 @@ enum Command {
         train: PathBuf,
         #[arg(long, default_value = "data/corpus-validation.bin")]
         val: PathBuf,
-        #[arg(long, default_value = "../shared/data/gmd")]
+        #[arg(long, default_value = "data/gmd")]
         gmd: PathBuf,
         /// Mocap files of the MMIP shape (see the README) to train on as well.
         #[arg(long)]
@@ -233,7 +248,7 @@ fn physical_not_built() -> anyhow::Error {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Render { song, out, sound, kit, map, channel, skip_unknown, no_motion, weights } => {
+        Command::Render { song, out, sound, kit, map, channel, skip_unknown, no_motion, weights, teacher } => {
             if matches!(sound, SoundMode::Physical) {
                 return Err(physical_not_built());
             }
@@ -246,6 +261,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 progress: true,
                 motion: !no_motion,
                 weights,
+                teacher,
             };
             let report = drumsim::render::render_file(&song, &opts)?;
             eprintln!("{report}");

@@ -29,8 +29,11 @@ pub struct RenderOptions {
     pub progress: bool,
     /// Write the motion too (SONG.motion.json, SONG.bvh, SONG.glb).
     pub motion: bool,
-    /// Hand model weights (default: the shipped ones, `motion::pipeline::default_weights`).
+    /// Hand model weights (default: `$DRUMSIM_ASSETS/hands/best.bpk` if it exists, else the
+    /// compiled-in model).
     pub weights: Option<PathBuf>,
+    /// Hands from the corpus teacher instead of the hand model.
+    pub teacher: bool,
 }
 
 impl Default for RenderOptions {
@@ -44,6 +47,7 @@ impl Default for RenderOptions {
             progress: false,
             motion: true,
             weights: None,
+            teacher: false,
         }
     }
 }
@@ -120,26 +124,37 @@ pub struct RenderReport {
 #[derive(Debug, Clone)]
 pub struct MotionOutput {
     pub paths: crate::motion::export::Paths,
-    /// "model WEIGHTS" or "teacher (no weights found)".
+    /// "model WEIGHTS" or "the corpus teacher (--teacher)".
     pub hands_from: String,
     pub frames: usize,
     pub dropped_notes: usize,
     pub seconds: f64,
 }
 
-/// The hand model of a render: the given or shipped weights (an error when they cannot be
-/// read), or `None` when there are none to find (the teacher plays, said on stderr).
-pub type Hands = Option<(crate::motion::hands::HandModel, PathBuf)>;
-
-pub fn load_hands(opts: &RenderOptions) -> anyhow::Result<Hands> {
-    match opts.weights.clone().or_else(crate::motion::pipeline::default_weights) {
-        Some(path) => Ok(Some((crate::motion::hands::HandModel::load(&path)?, path))),
-        None => Ok(None),
-    }
+/// Where a render's hands come from.
+pub enum Hands {
+    /// The hand model, with the name the summary gives it (a path, or the compiled-in one).
+    Model(Box<crate::motion::hands::HandModel>, String),
+    /// The corpus teacher, only when asked for (`--teacher`).
+    Teacher,
 }
 
-/// The motion stage of a render: hands from the model (or the teacher when no weights are
-/// found, said on stderr), strike planning on `kit`, retrieval, feet, then the exports.
+/// The hand model of a render: `--teacher`, else `--weights`, else
+/// `$DRUMSIM_ASSETS/hands/best.bpk` when it exists, else the compiled-in model. Given weights
+/// that cannot be read are an error; nothing falls back to the teacher silently.
+pub fn load_hands(opts: &RenderOptions) -> anyhow::Result<Hands> {
+    use crate::motion::hands::{HandModel, SHIPPED_WEIGHTS_NAME};
+    if opts.teacher {
+        return Ok(Hands::Teacher);
+    }
+    Ok(match opts.weights.clone().or_else(crate::motion::pipeline::override_weights) {
+        Some(path) => Hands::Model(Box::new(HandModel::load(&path)?), path.display().to_string()),
+        None => Hands::Model(Box::new(HandModel::shipped()), SHIPPED_WEIGHTS_NAME.to_string()),
+    })
+}
+
+/// The motion stage of a render: hands from the model (or the teacher when asked for),
+/// strike planning on `kit`, retrieval, feet, then the exports.
 pub fn render_motion(
     song: &Path,
     stem: &str,
@@ -153,11 +168,8 @@ pub fn render_motion(
     let channel = opts.channel.unwrap_or(map.channel);
     let perf = read_file(song, &ReadOptions { channel })?;
     let (predicted, hands_from) = match &hands {
-        Some((model, path)) => (pipeline::model_hands(model, &perf, map), format!("model {}", path.display())),
-        None => {
-            eprintln!("drumsim: no hand model weights found (assets/hands/best.bpk): hands from the corpus teacher");
-            (pipeline::teacher_hands(&perf, map, kit)?, "teacher (no weights found)".to_string())
-        }
+        Hands::Model(model, name) => (pipeline::model_hands(model, &perf, map), format!("model {name}")),
+        Hands::Teacher => (pipeline::teacher_hands(&perf, map, kit)?, "the corpus teacher (--teacher)".to_string()),
     };
     let library = pipeline::shipped_library()?;
     let (motion, report) = pipeline::perform(&perf, map, kit, &predicted, &library)?;

@@ -9,7 +9,7 @@ use drumsim::motion::corpus::{build_dataset, load_examples, run_corpus, teach, P
 use std::path::{Path, PathBuf};
 
 fn gmd() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/gmd")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/gmd")
 }
 
 const BEATS: [&str; 5] = [

@@ -22,7 +22,7 @@ fn midi_files(dir: &Path, out: &mut Vec<PathBuf>) {
 #[test]
 fn every_groove_midi_file_renders() {
     let mut files = Vec::new();
-    midi_files(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/gmd"), &mut files);
+    midi_files(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/gmd"), &mut files);
     files.sort();
     assert_eq!(files.len(), 1021);
     let kit = Kit::builtin_default();

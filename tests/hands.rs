@@ -228,7 +228,7 @@ fn smoke_training_lowers_validation_loss_and_resumes() {
 fn gmd_roll(frames: usize) -> Vec<[f32; ROLL_COLUMNS]> {
     use drumsim::midi::roll::piano_roll;
     use drumsim::midi::{read_file, NoteMap, ReadOptions};
-    let gmd = Path::new("../shared/data/gmd");
+    let gmd = Path::new("data/gmd");
     let info = std::fs::read_to_string(gmd.join("info.csv")).expect("GMD info.csv");
     let map = NoteMap::builtin("roland-td").unwrap();
     let mut roll = Vec::new();

@@ -291,10 +291,10 @@ fn map_that_is_neither_builtin_nor_file_lists_the_builtins() {
     assert_eq!((map.channel, map.entry(60).unwrap().roll), (10, 38));
 }
 
-// ---- The Groove MIDI Dataset (../shared/data/gmd) ----
+// ---- The Groove MIDI Dataset (data/gmd) ----
 
 fn gmd_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/gmd")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/gmd")
 }
 
 fn mid_files(dir: &Path, out: &mut Vec<PathBuf>) {

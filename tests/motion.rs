@@ -6,11 +6,11 @@ use drumsim::eval::strike::{fraction_on_surface_within, StrikeNote};
 use drumsim::kit::Kit;
 use drumsim::midi::{read_file, NoteMap, ReadOptions};
 use drumsim::motion::hands::HandModel;
-use drumsim::motion::pipeline::{default_weights, model_hands, perform, teacher_hands};
+use drumsim::motion::pipeline::{model_hands, perform};
 use drumsim::motion::upper::Library;
 use std::path::{Path, PathBuf};
 
-const GMD: &str = "../shared/data/gmd";
+const GMD: &str = "data/gmd";
 
 /// Validation files: every 12th row of the split (beats and fills of several drummers).
 fn validation_files() -> Vec<PathBuf> {
@@ -24,21 +24,15 @@ fn validation_files() -> Vec<PathBuf> {
 }
 
 /// Share of hand notes on their surface within one frame, over the files, on `kit`, with
-/// hands predicted by the shipped hand model (trained on the default kit), or by the teacher
-/// on the default kit when no weights ship.
+/// hands predicted by the shipped hand model (trained on the default kit).
 fn on_surface(kit: &Kit) -> (usize, usize, usize) {
     let map = NoteMap::builtin("roland-td").unwrap();
-    let default = Kit::builtin_default();
-    let model = default_weights().map(|p| HandModel::load(&p).unwrap());
-    eprintln!("hands from {}", if model.is_some() { "the shipped model" } else { "the teacher" });
+    let model = HandModel::shipped();
     let lib = Library::load(Path::new("assets/upper-library.bin")).unwrap();
     let (mut on, mut total, mut fills) = (0.0, 0, 0);
     for path in validation_files() {
         let perf = read_file(&path, &ReadOptions { channel: 10 }).unwrap();
-        let predicted = match &model {
-            Some(m) => model_hands(m, &perf, &map),
-            None => teacher_hands(&perf, &map, &default).unwrap(),
-        };
+        let predicted = model_hands(&model, &perf, &map);
         let (motion, report) = perform(&perf, &map, kit, &predicted, &lib).unwrap();
         assert_eq!(motion.frames.len(), predicted.len());
         assert!(motion.frames.iter().all(|f| f.face.len() == 52 && f.hihat_openness.is_finite()));

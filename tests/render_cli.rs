@@ -10,7 +10,7 @@ use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 fn gmd(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/gmd").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/gmd").join(name)
 }
 
 fn fresh_dir(tag: &str) -> PathBuf {

@@ -5,7 +5,7 @@ mod raw;
 
 use std::path::{Path, PathBuf};
 
-pub use raw::DEFAULT_KIT_TOML;
+pub use raw::{BUILTIN_KITS, DEFAULT_KIT_TOML};
 
 /// How a piece vibrates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -101,7 +101,7 @@ pub struct Kit {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum KitError {
-    #[error("kit config {path}: cannot read: {source}")]
+    #[error("kit config {path}: cannot read: {source} (built-in kits: default, rearranged)")]
     Read { path: PathBuf, source: std::io::Error },
     #[error("kit config {path}: {message}")]
     Parse { path: PathBuf, message: String },
@@ -116,8 +116,19 @@ impl Kit {
             .expect("the built-in kit config is valid (tested)")
     }
 
-    /// Load and validate a kit file.
+    /// A built-in kit by name ("default", "rearranged"; `config/kits/NAME.toml`, compiled in).
+    pub fn builtin(name: &str) -> Option<Kit> {
+        let (_, text) = BUILTIN_KITS.iter().find(|(n, _)| *n == name)?;
+        let path = format!("config/kits/{name}.toml");
+        Some(Kit::from_toml_str(text, Path::new(&path)).expect("the built-in kit configs are valid (tested)"))
+    }
+
+    /// A built-in kit's name, else a kit file to load and validate (a built-in name wins:
+    /// write `./default` for a file named default).
     pub fn load(path: &Path) -> Result<Kit, KitError> {
+        if let Some(kit) = path.to_str().and_then(Kit::builtin) {
+            return Ok(kit);
+        }
         let text =
             std::fs::read_to_string(path).map_err(|source| KitError::Read { path: path.to_path_buf(), source })?;
         Kit::from_toml_str(&text, path)

@@ -6,6 +6,10 @@ use std::path::Path;
 
 pub const DEFAULT_KIT_TOML: &str = include_str!("../../config/kits/default.toml");
 
+/// The kits compiled into the binary, by the name `--kit` knows them by.
+pub const BUILTIN_KITS: [(&str, &str); 2] =
+    [("default", DEFAULT_KIT_TOML), ("rearranged", include_str!("../../config/kits/rearranged.toml"))];
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawKit {
@@ -206,6 +210,17 @@ mod tests {
         }
         assert!(kit.piece("snare").unwrap().wires.is_some());
         assert!(kit.piece("hihat").unwrap().closed_damping_factor.is_some());
+    }
+
+    #[test]
+    fn every_builtin_kit_loads_by_name_and_equals_its_file() {
+        for (name, _) in BUILTIN_KITS {
+            let by_name = Kit::load(Path::new(name)).unwrap();
+            let file = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("config/kits/{name}.toml"));
+            assert_eq!(by_name.name, Kit::load(&file).unwrap().name, "{name}");
+        }
+        let e = Kit::load(Path::new("no-such-kit")).unwrap_err().to_string();
+        assert!(e.contains("no-such-kit") && e.contains("built-in kits: default, rearranged"), "{e}");
     }
 
     #[test]

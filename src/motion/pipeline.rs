@@ -37,22 +37,13 @@ pub struct MotionReport {
     pub retrieval: MatchReport,
 }
 
-/// Where the hand model's weights are looked for when none are given: `$DRUMSIM_ASSETS`,
-/// then `assets/` in the working directory, then the `assets/` of the source tree the
-/// binary was built in (`target/release/drumsim` -> `assets/`).
-pub fn default_weights() -> Option<std::path::PathBuf> {
-    let rel = std::path::Path::new("hands").join("best.bpk");
-    let mut roots: Vec<std::path::PathBuf> = Vec::new();
-    if let Some(dir) = std::env::var_os("DRUMSIM_ASSETS") {
-        roots.push(dir.into());
-    }
-    roots.push("assets".into());
-    if let Ok(exe) = std::env::current_exe() {
-        if let Some(root) = exe.parent().and_then(|d| d.parent()).and_then(|d| d.parent()) {
-            roots.push(root.join("assets"));
-        }
-    }
-    roots.into_iter().map(|r| r.join(&rel)).find(|p| p.is_file())
+/// Weights that replace the compiled-in hand model without a `--weights` option:
+/// `$DRUMSIM_ASSETS/hands/best.bpk`, when that variable is set and the file exists. Renders
+/// otherwise use [`super::hands::HandModel::shipped`], wherever the binary is run from.
+pub fn override_weights() -> Option<std::path::PathBuf> {
+    let dir = std::env::var_os("DRUMSIM_ASSETS")?;
+    let path = std::path::Path::new(&dir).join("hands").join("best.bpk");
+    path.is_file().then_some(path)
 }
 
 /// The shipped retrieval library (compiled in from `assets/upper-library.bin`).

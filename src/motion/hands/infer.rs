@@ -133,6 +133,9 @@ impl Packed {
     }
 }
 
+/// How the compiled-in weights are named in render summaries and errors.
+pub const SHIPPED_WEIGHTS_NAME: &str = "compiled-in assets/hands/best.bpk";
+
 /// The trained hand model, ready to run: weights in the kernels' layout and the target
 /// normalisation.
 #[derive(Debug, Clone)]
@@ -156,15 +159,30 @@ impl HandModel {
     pub fn load(path: &Path) -> Result<Self, HandsError> {
         let weights = HandWeights::load(path)?;
         let side = path.with_extension("json");
-        let err = |reason: String| HandsError::Read { path: side.clone(), reason };
-        let text = std::fs::read_to_string(&side).map_err(|e| err(e.to_string()))?;
-        let sidecar: Sidecar = serde_json::from_str(&text).map_err(|e| err(e.to_string()))?;
+        let text = std::fs::read_to_string(&side)
+            .map_err(|e| HandsError::Read { path: side.clone(), reason: e.to_string() })?;
+        Self::with_sidecar(&weights, &text, &side)
+    }
+
+    /// The shipped model, compiled into the binary from `assets/hands/best.bpk` and its JSON
+    /// sidecar: what a render uses unless `--weights` or `$DRUMSIM_ASSETS` says otherwise.
+    pub fn shipped() -> Self {
+        let path = Path::new(SHIPPED_WEIGHTS_NAME);
+        let weights = HandWeights::from_bytes(include_bytes!("../../../assets/hands/best.bpk"), path)
+            .expect("the compiled-in hand model weights are valid (checked by a unit test)");
+        Self::with_sidecar(&weights, include_str!("../../../assets/hands/best.json"), &path.with_extension("json"))
+            .expect("the compiled-in hand model sidecar is valid (checked by a unit test)")
+    }
+
+    fn with_sidecar(weights: &HandWeights, sidecar_json: &str, side: &Path) -> Result<Self, HandsError> {
+        let err = |reason: String| HandsError::Read { path: side.to_path_buf(), reason };
+        let sidecar: Sidecar = serde_json::from_str(sidecar_json).map_err(|e| err(e.to_string()))?;
         if sidecar.normalisation.std.iter().chain(&sidecar.normalisation.mean).any(|v| !v.is_finite())
             || sidecar.normalisation.std.iter().any(|&s| s <= 0.0)
         {
             return Err(err("normalisation has a non-finite mean or a non-positive std".into()));
         }
-        Ok(Self::new(&weights, sidecar.normalisation))
+        Ok(Self::new(weights, sidecar.normalisation))
     }
 
     /// A model from weights already in memory.
@@ -427,5 +445,15 @@ mod tests {
         assert!(worst[1] < 1e-6 && worst[2] < 1e-6, "sigmoid/tanh abs error {worst:?}");
         assert!((0.0..1e-30).contains(&sigmoid(-1e4)) && sigmoid(1e4) == 1.0);
         assert!(tanh(1e4) == 1.0 && tanh(-1e4) == -1.0);
+    }
+
+    #[test]
+    fn the_compiled_in_model_is_the_shipped_checkpoint() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let path = root.join("assets/hands/best.bpk");
+        let from_file = HandWeights::load(&path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(HandWeights::from_bytes(&bytes, &path).unwrap(), from_file);
+        assert_eq!(HandModel::shipped().norm, HandModel::load(&path).unwrap().norm);
     }
 }

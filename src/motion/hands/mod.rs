@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::motion::HAND_VALUES;
 
-pub use infer::HandModel;
+pub use infer::{HandModel, SHIPPED_WEIGHTS_NAME};
 pub use streams::Kernels;
 pub use train::{run_train, train, EpochReport, TrainConfig, TrainReport};
 

@@ -9,7 +9,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use burn::store::burn_pack::{DType, Reader};
+use burn::store::burn_pack::{Bytes, DType, Reader};
 
 use super::{HandsError, ROLL_COLUMNS};
 use crate::motion::HAND_VALUES;
@@ -56,6 +56,18 @@ impl Tensors {
             return Err(err("no such file".into()));
         }
         let reader = Reader::from_file_exact(path).map_err(|e| err(e.to_string()))?;
+        Self::from_reader(reader, path)
+    }
+
+    /// Tensors from a checkpoint in memory; `path` names it in errors.
+    fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, HandsError> {
+        let err = |reason: String| HandsError::Read { path: path.to_path_buf(), reason };
+        let reader = Reader::from_bytes(Bytes::from_bytes_vec(bytes.to_vec())).map_err(|e| err(e.to_string()))?;
+        Self::from_reader(reader, path)
+    }
+
+    fn from_reader(reader: Reader, path: &Path) -> Result<Self, HandsError> {
+        let err = |reason: String| HandsError::Read { path: path.to_path_buf(), reason };
         let mut map = HashMap::new();
         for t in reader.into_tensors().map_err(|e| err(e.to_string()))? {
             if t.dtype != DType::F32 {
@@ -107,7 +119,15 @@ impl Tensors {
 impl HandWeights {
     /// Reads a checkpoint; every tensor's presence, shape, dtype and finiteness is checked.
     pub fn load(path: &Path) -> Result<Self, HandsError> {
-        let t = Tensors::read(path)?;
+        Self::from_tensors(Tensors::read(path)?, path)
+    }
+
+    /// Reads a checkpoint held in memory (the compiled-in weights); `path` names it in errors.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, HandsError> {
+        Self::from_tensors(Tensors::from_bytes(bytes, path)?, path)
+    }
+
+    fn from_tensors(t: Tensors, path: &Path) -> Result<Self, HandsError> {
         let probe = "lstm1.forward.input_gate.hidden_transform.weight";
         let hidden = match t.shape(probe)? {
             [h, h2] if h == h2 && *h > 0 => *h,
