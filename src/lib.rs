@@ -11,6 +11,7 @@ pub mod kit;
 pub mod live;
 pub mod midi;
 pub mod motion;
+pub mod perform;
 pub mod render;
 pub mod rng;
 pub mod sound;

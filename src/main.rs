@@ -23,7 +23,7 @@ struct Cli {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum SoundMode {
-    /// Strikes made by the simulated body (not built yet: use direct).
+    /// Strikes made by the simulated body's sticks (render; live: not built yet).
     Physical,
     /// Strikes made straight from MIDI notes.
     Direct,
@@ -242,16 +242,13 @@ fn exit_code(err: &anyhow::Error) -> u8 {
 
 fn physical_not_built() -> anyhow::Error {
     anyhow::Error::new(drumsim::render::RenderInputError::Unsupported(
-        "--sound physical needs the simulated body, which is not built yet; use --sound direct".into(),
+        "live --sound physical is not built yet (render --sound physical is); use --sound direct".into(),
     ))
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render { song, out, sound, kit, map, channel, skip_unknown, no_motion, weights, teacher } => {
-            if matches!(sound, SoundMode::Physical) {
-                return Err(physical_not_built());
-            }
             let opts = drumsim::render::RenderOptions {
                 out_dir: out,
                 kit,
@@ -262,6 +259,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 motion: !no_motion,
                 weights,
                 teacher,
+                sound: match sound {
+                    SoundMode::Direct => drumsim::render::SoundMode::Direct,
+                    SoundMode::Physical => drumsim::render::SoundMode::Physical,
+                },
             };
             let report = drumsim::render::render_file(&song, &opts)?;
             eprintln!("{report}");

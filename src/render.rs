@@ -18,6 +18,16 @@ pub const SAMPLE_RATE_HZ: u32 = 48_000;
 pub const MAX_TAIL_S: f64 = 8.0;
 const BLOCK: usize = 512;
 
+/// Where the strikes that sound come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SoundMode {
+    /// Straight from the MIDI notes (the fast mode).
+    #[default]
+    Direct,
+    /// From the simulated body's contacts.
+    Physical,
+}
+
 /// Options of `drumsim render`.
 #[derive(Debug, Clone)]
 pub struct RenderOptions {
@@ -34,6 +44,7 @@ pub struct RenderOptions {
     pub weights: Option<PathBuf>,
     /// Hands from the corpus teacher instead of the hand model.
     pub teacher: bool,
+    pub sound: SoundMode,
 }
 
 impl Default for RenderOptions {
@@ -48,6 +59,7 @@ impl Default for RenderOptions {
             motion: true,
             weights: None,
             teacher: false,
+            sound: SoundMode::Direct,
         }
     }
 }
@@ -118,6 +130,8 @@ pub struct RenderReport {
     pub non_finite_samples: u64,
     /// The motion files, when written, and what the motion stage did.
     pub motion: Option<MotionOutput>,
+    /// What the body did, in physical mode.
+    pub physical: Option<PhysicalSummary>,
 }
 
 /// The motion a render wrote.
@@ -153,33 +167,39 @@ pub fn load_hands(opts: &RenderOptions) -> anyhow::Result<Hands> {
     })
 }
 
+/// The motion stage's result in a render, before anything is written.
+pub struct Staged {
+    pub planned: crate::motion::pipeline::Planned,
+    /// "model NAME" or "the corpus teacher (--teacher)".
+    pub hands_from: String,
+    pub seconds: f64,
+}
+
 /// The motion stage of a render: hands from the model (or the teacher when asked for),
-/// strike planning on `kit`, retrieval, feet, then the exports.
-pub fn render_motion(
-    song: &Path,
-    stem: &str,
-    kit: &Kit,
-    map: &NoteMap,
-    opts: &RenderOptions,
-    hands: Hands,
-) -> anyhow::Result<MotionOutput> {
-    use crate::motion::{export, pipeline, rig::Rig};
+/// strike planning on `kit`, retrieval, feet.
+pub fn stage_motion(perf: &Performance, kit: &Kit, map: &NoteMap, hands: &Hands) -> anyhow::Result<Staged> {
+    use crate::motion::pipeline;
     let started = Instant::now();
-    let channel = opts.channel.unwrap_or(map.channel);
-    let perf = read_file(song, &ReadOptions { channel })?;
-    let (predicted, hands_from) = match &hands {
-        Hands::Model(model, name) => (pipeline::model_hands(model, &perf, map), format!("model {name}")),
-        Hands::Teacher => (pipeline::teacher_hands(&perf, map, kit)?, "the corpus teacher (--teacher)".to_string()),
+    let (predicted, hands_from) = match hands {
+        Hands::Model(model, name) => (pipeline::model_hands(model, perf, map), format!("model {name}")),
+        Hands::Teacher => (pipeline::teacher_hands(perf, map, kit)?, "the corpus teacher (--teacher)".to_string()),
     };
     let library = pipeline::shipped_library()?;
-    let (motion, report) = pipeline::perform(&perf, map, kit, &predicted, &library)?;
-    let paths = export::write_all(&motion, &Rig::default(), &opts.out_dir, stem)?;
+    let planned = pipeline::perform_planned(perf, map, kit, &predicted, &library)?;
+    Ok(Staged { planned, hands_from, seconds: started.elapsed().as_secs_f64() })
+}
+
+/// Write a staged motion's exports (SONG.motion.json, .bvh, .glb).
+pub fn write_motion(staged: &Staged, out_dir: &Path, stem: &str) -> anyhow::Result<MotionOutput> {
+    use crate::motion::{export, rig::Rig};
+    let started = Instant::now();
+    let paths = export::write_all(&staged.planned.motion, &Rig::default(), out_dir, stem)?;
     Ok(MotionOutput {
         paths,
-        hands_from,
-        frames: report.frames,
-        dropped_notes: report.dropped,
-        seconds: started.elapsed().as_secs_f64(),
+        hands_from: staged.hands_from.clone(),
+        frames: staged.planned.report.frames,
+        dropped_notes: staged.planned.report.dropped,
+        seconds: staged.seconds + started.elapsed().as_secs_f64(),
     })
 }
 
@@ -196,6 +216,23 @@ impl std::fmt::Display for RenderReport {
                 m.paths.json.display(),
                 m.paths.bvh.display(),
                 m.paths.glb.display()
+            )?;
+        }
+        if let Some(p) = &self.physical {
+            writeln!(
+                f,
+                "physical: {} of {} hand notes hit within 10 ms ({:.2} %), {} contacts that played no note, deepest stick {:.1} mm, body in {:.2} s{}",
+                p.hit,
+                p.hand_notes,
+                100.0 * p.hit as f64 / p.hand_notes.max(1) as f64,
+                p.spurious,
+                p.max_penetration_mm,
+                p.seconds,
+                if p.pedal_notes > 0 {
+                    format!("; {} kick and hi-hat pedal notes not sounded (no simulated pedal yet)", p.pedal_notes)
+                } else {
+                    String::new()
+                }
             )?;
         }
         write!(
@@ -220,8 +257,8 @@ pub struct Score {
     pub duration_s: f64,
 }
 
-/// Read a song and turn it into contact messages and sound events (direct mode).
-pub fn score_file(song: &Path, kit: &Kit, map: &NoteMap, opts: &RenderOptions) -> anyhow::Result<Score> {
+/// Read a song for a render: the drum channel checked, unknown notes refused unless skipped.
+pub fn read_song(song: &Path, map: &NoteMap, opts: &RenderOptions) -> anyhow::Result<Performance> {
     let channel = opts.channel.unwrap_or(map.channel);
     if !(1..=16).contains(&channel) {
         return Err(RenderInputError::Channel(channel).into());
@@ -230,28 +267,69 @@ pub fn score_file(song: &Path, kit: &Kit, map: &NoteMap, opts: &RenderOptions) -
     if !opts.skip_unknown {
         map.check_known(&perf)?;
     }
-    score_performance(&perf, kit, map)
+    Ok(perf)
+}
+
+/// Read a song and turn it into contact messages and sound events (direct mode).
+pub fn score_file(song: &Path, kit: &Kit, map: &NoteMap, opts: &RenderOptions) -> anyhow::Result<Score> {
+    score_performance(&read_song(song, map, opts)?, kit, map)
+}
+
+/// Carries messages as OSC bytes through the in-process channel the live mode uses, decodes
+/// them into sound events, and records them for SONG.contacts.json.
+struct Carrier<'a> {
+    kit: &'a Kit,
+    tx: transport::ChannelSender,
+    rx: transport::ChannelReceiver,
+    buf: Vec<u8>,
+    events: Vec<SoundEvent>,
+    contacts: ContactsFile,
+}
+
+impl<'a> Carrier<'a> {
+    fn new(perf: &Performance, kit: &'a Kit, map: &NoteMap, sound: &'static str) -> Self {
+        let (tx, rx) = transport::channel(64);
+        let contacts = ContactsFile {
+            song: perf.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            sound,
+            kit: kit.name.clone(),
+            map: map.name.clone(),
+            sample_rate_hz: SAMPLE_RATE_HZ,
+            contacts: Vec::new(),
+            hihat: Vec::new(),
+            chokes: Vec::new(),
+        };
+        Carrier { kit, tx, rx, buf: Vec::with_capacity(128), events: Vec::new(), contacts }
+    }
+
+    fn carry(&mut self, m: &Message, note: Option<NoteRef>) -> anyhow::Result<()> {
+        encode(m, &mut self.buf)?;
+        self.tx.send(&self.buf)?;
+        let packet = self.rx.recv_timeout(Duration::ZERO)?.expect("a packet just sent is there");
+        for msg in decode(packet)? {
+            self.events.push(SoundEvent::from_message(&msg, self.kit, SAMPLE_RATE_HZ as f32)?);
+            match msg {
+                Message::Contact(contact) => self.contacts.contacts.push(ContactRecord { contact, note }),
+                Message::HiHat { time_s, openness } => self.contacts.hihat.push(HiHatRecord { time_s, openness }),
+                Message::Choke { piece, time_s } => self.contacts.chokes.push(ChokeRecord { piece, time_s }),
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(mut self, duration_s: f64) -> Score {
+        self.events.sort_by_key(|e| e.at_sample);
+        Score { contacts: self.contacts, events: self.events, duration_s }
+    }
 }
 
 /// Turn a performance into messages, carry them as OSC bytes through an in-process channel
-/// exactly as the physics will send them, and decode them into sound events.
+/// exactly as the physics sends them, and decode them into sound events.
 pub fn score_performance(perf: &Performance, kit: &Kit, map: &NoteMap) -> anyhow::Result<Score> {
     let mut director = Director::new(kit, map).map_err(RenderInputError::from)?;
     director.note_openness = !perf.events.iter().any(|e| matches!(e.kind, DrumEventKind::HiHatPedal { .. }));
-    let mut contacts = ContactsFile {
-        song: perf.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
-        sound: "direct",
-        kit: kit.name.clone(),
-        map: map.name.clone(),
-        sample_rate_hz: SAMPLE_RATE_HZ,
-        contacts: Vec::new(),
-        hihat: Vec::new(),
-        chokes: Vec::new(),
-    };
-    // The same in-process transport the live mode uses: OSC bytes in, decoded messages out.
-    let (mut tx, mut rx) = transport::channel(64);
-    let mut events = Vec::new();
-    let (mut msgs, mut buf) = (Vec::new(), Vec::with_capacity(128));
+    let mut carrier = Carrier::new(perf, kit, map, "direct");
+    let mut msgs = Vec::new();
     for ev in &perf.events {
         msgs.clear();
         director.on_event(ev, &mut msgs);
@@ -260,21 +338,68 @@ pub fn score_performance(perf: &Performance, kit: &Kit, map: &NoteMap) -> anyhow
             _ => None,
         };
         for m in &msgs {
-            encode(m, &mut buf)?;
-            tx.send(&buf)?;
-            let packet = rx.recv_timeout(Duration::ZERO)?.expect("a packet just sent is there");
-            for msg in decode(packet)? {
-                events.push(SoundEvent::from_message(&msg, kit, SAMPLE_RATE_HZ as f32)?);
-                match msg {
-                    Message::Contact(contact) => contacts.contacts.push(ContactRecord { contact, note }),
-                    Message::HiHat { time_s, openness } => contacts.hihat.push(HiHatRecord { time_s, openness }),
-                    Message::Choke { piece, time_s } => contacts.chokes.push(ChokeRecord { piece, time_s }),
-                }
-            }
+            carrier.carry(m, note)?;
         }
     }
-    events.sort_by_key(|e| e.at_sample);
-    Ok(Score { contacts, events, duration_s: perf.notes_end_s })
+    Ok(carrier.finish(perf.notes_end_s))
+}
+
+/// What the body did in a physical render.
+#[derive(Debug, Clone)]
+pub struct PhysicalSummary {
+    /// Notes the body plays (hand notes; feet are not simulated yet) and how many it hit.
+    pub hand_notes: usize,
+    pub hit: usize,
+    /// Contacts that played no note.
+    pub spurious: usize,
+    /// Kick and hi-hat pedal notes, which have no simulated pedal yet (not sounded).
+    pub pedal_notes: usize,
+    pub max_penetration_mm: f32,
+    pub seconds: f64,
+}
+
+/// Physical mode: the staged motion played by the body; its contacts, and the hi-hat
+/// openness of the left foot, are the only messages. Notes are matched to contacts only
+/// for SONG.contacts.json and the summary.
+pub fn score_physical(
+    perf: &Performance,
+    kit: &Kit,
+    map: &NoteMap,
+    staged: &Staged,
+) -> anyhow::Result<(Score, PhysicalSummary)> {
+    use crate::perform::matching::{match_contacts, onsets};
+    let started = Instant::now();
+    let take = crate::perform::play(kit, &staged.planned.hands, perf.notes_end_s + 0.5)?;
+    if !take.finite {
+        anyhow::bail!("{}: the simulated body left the finite numbers", perf.path.display());
+    }
+    let all = onsets(perf, map);
+    let (of_contact, played) = match_contacts(&all, &take.messages);
+    let mut carrier = Carrier::new(perf, kit, map, "physical");
+    // The left foot's hi-hat openness, wherever it changes (60 fps).
+    let mut last = f32::NAN;
+    for (f, frame) in staged.planned.motion.frames.iter().enumerate() {
+        let o = frame.hihat_openness;
+        if last.is_nan() || (o - last).abs() >= 0.005 {
+            let time_s = (f as f64 / staged.planned.motion.fps) as f32;
+            carrier.carry(&Message::HiHat { time_s, openness: o }, None)?;
+            last = o;
+        }
+    }
+    for (m, of) in take.messages.iter().zip(&of_contact) {
+        let note = of.map(|i| NoteRef { note: all[i].note, velocity: all[i].velocity, time_s: all[i].time_s });
+        carrier.carry(&Message::Contact(m.clone()), note)?;
+    }
+    let is_pedal = |o: &crate::perform::matching::Onset| o.zone == crate::midi::Zone::Pedal;
+    let summary = PhysicalSummary {
+        hand_notes: all.iter().filter(|o| !is_pedal(o)).count(),
+        hit: all.iter().zip(&played).filter(|(o, p)| **p && !is_pedal(o)).count(),
+        spurious: of_contact.iter().filter(|o| o.is_none()).count(),
+        pedal_notes: all.iter().filter(|o| is_pedal(o)).count(),
+        max_penetration_mm: take.max_penetration_m * 1e3,
+        seconds: started.elapsed().as_secs_f64(),
+    };
+    Ok((carrier.finish(perf.notes_end_s), summary))
 }
 
 /// Render sound events to stereo blocks handed to `sink`, starting at the events' time zero
@@ -334,9 +459,20 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
         .ok_or_else(|| RenderInputError::NoStem { path: song.to_path_buf() })?
         .to_string_lossy()
         .into_owned();
-    let score = score_file(song, &kit, &map, opts)?;
     // The hand model is read before anything is written: bad weights stop the render early.
-    let hands = if opts.motion { Some(load_hands(opts)?) } else { None };
+    let (score, hands, staged, physical) = match opts.sound {
+        SoundMode::Direct => {
+            let score = score_file(song, &kit, &map, opts)?;
+            (score, if opts.motion { Some(load_hands(opts)?) } else { None }, None, None)
+        }
+        SoundMode::Physical => {
+            let perf = read_song(song, &map, opts)?;
+            let hands = load_hands(opts)?;
+            let staged = stage_motion(&perf, &kit, &map, &hands)?;
+            let (score, summary) = score_physical(&perf, &kit, &map, &staged)?;
+            (score, None, Some(staged).filter(|_| opts.motion), Some(summary))
+        }
+    };
     std::fs::create_dir_all(&opts.out_dir)
         .map_err(|e| anyhow::anyhow!("cannot create output directory {}: {e}", opts.out_dir.display()))?;
     let wav_path = opts.out_dir.join(format!("{stem}.wav"));
@@ -368,12 +504,18 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
     let wav_path = wav.finish().map_err(|e| anyhow::anyhow!("cannot finish {}: {e}", wav_path.display()))?;
     let json = serde_json::to_vec_pretty(&score.contacts)?;
     write_atomically(&json_path, &json).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", json_path.display()))?;
-    let motion = match hands {
-        Some(hands) => Some(render_motion(song, &stem, &kit, &map, opts, hands)?),
-        None => None,
+    let staged = match (staged, hands) {
+        (Some(staged), _) => Some(staged),
+        (None, Some(hands)) => {
+            let perf = read_song(song, &map, &RenderOptions { skip_unknown: true, ..opts.clone() })?;
+            Some(stage_motion(&perf, &kit, &map, &hands)?)
+        }
+        (None, None) => None,
     };
+    let motion = staged.map(|s| write_motion(&s, &opts.out_dir, &stem)).transpose()?;
     Ok(RenderReport {
         motion,
+        physical,
         wav: wav_path,
         contacts_json: json_path,
         audio_s: samples as f64 / SAMPLE_RATE_HZ as f64,

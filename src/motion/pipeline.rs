@@ -74,6 +74,27 @@ pub fn perform(
     predicted: &[[Pose; 2]],
     library: &Library,
 ) -> Result<(Motion, MotionReport), MotionError> {
+    perform_planned(perf, map, kit, predicted, library).map(|p| (p.motion, p.report))
+}
+
+/// What the motion stage made: the motion, its report, and the planned hands themselves
+/// (continuous in time, for the body's 250 Hz targets).
+pub struct Planned {
+    pub motion: Motion,
+    pub report: MotionReport,
+    pub hands: plan::PlannedHands,
+    /// The hand notes on this kit, in `MotionReport::hands` order.
+    pub notes: Vec<HandNote>,
+}
+
+/// [`perform`], keeping the planned hands.
+pub fn perform_planned(
+    perf: &Performance,
+    map: &NoteMap,
+    kit: &Kit,
+    predicted: &[[Pose; 2]],
+    library: &Library,
+) -> Result<Planned, MotionError> {
     let roll = piano_roll(perf, map);
     let frames = roll.len();
     if frames == 0 || perf.events.is_empty() {
@@ -127,5 +148,5 @@ pub fn perform(
         hands: assignment.hands.clone(),
         retrieval,
     };
-    Ok((motion, report))
+    Ok(Planned { motion, report, hands: planned, notes })
 }

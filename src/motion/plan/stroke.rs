@@ -122,6 +122,11 @@ pub fn plan_hands(
 }
 
 impl PlannedHands {
+    /// The same plan with other stroke settings (the offsets onto the strike points stay).
+    pub fn with_settings(&self, settings: StrokeSettings) -> PlannedHands {
+        PlannedHands { settings, ..self.clone() }
+    }
+
     /// The notes each hand plays.
     pub fn notes(&self, hand: usize) -> impl Iterator<Item = &HandNote> {
         self.notes[hand].iter().map(|(n, _)| n)
@@ -189,6 +194,29 @@ impl PlannedHands {
         let (h, w) = self.stroke(hand, k, t);
         let on_line = add(n.point, scale(n.normal, h));
         add(p, scale(sub(on_line, p), w))
+    }
+
+    /// The stick tip's *centre* as the simulated body should aim it at `t`: the planned tip
+    /// lifted by the bead's radius `bead_m` along the surface's normal around each hit, so
+    /// the bead touches the surface exactly when the planned tip does, and, for `press_m`
+    /// after that touch, carried on down at the stroke's speed (the drum stops the stick; the
+    /// target pressing into it is what makes a physical impact at that speed). The rebound
+    /// follows after the press. With `dwell_s` 0 in the settings the touch is at the onset.
+    pub fn strike_tip(&self, hand: usize, t: f64, bead_m: f32, press_m: f32) -> [f32; 3] {
+        let Some(k) = self.nearest(hand, t) else { return self.tip(hand, t) };
+        let n = self.notes[hand][k].0;
+        let press_s = (press_m / n.speed_mps.max(0.1)) as f64;
+        let dt = t - n.time_s;
+        let (t_plan, below) = if dt < 0.0 {
+            (t, 0.0)
+        } else if dt < press_s {
+            (n.time_s, n.speed_mps * dt as f32)
+        } else {
+            (t - press_s, 0.0)
+        };
+        let p = self.tip(hand, t_plan);
+        let (_, w) = self.stroke(hand, k, t_plan);
+        add(p, scale(n.normal, bead_m * w - below))
     }
 
     /// The planned hand pose at `t`. The grip is the predicted one moved by the smooth

@@ -1,0 +1,78 @@
+//! The physical performance of Groove MIDI takes, measured as `drumsim eval` would: hand
+//! notes hit by a contact within 10 ms, spurious contacts, timing, speed against velocity.
+//! `cargo run --release --example physical_probe [TAKE.mid ...]` (default: a funk groove).
+
+use drumsim::kit::Kit;
+use drumsim::midi::{read_file, NoteMap, ReadOptions, Zone};
+use drumsim::motion::hands::HandModel;
+use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
+use drumsim::perform::matching::{match_contacts, onsets};
+use drumsim::perform::play;
+use std::path::Path;
+
+fn main() {
+    let mut takes: Vec<String> = std::env::args().skip(1).collect();
+    if takes.is_empty() {
+        takes.push("data/gmd/drummer1/session1/1_funk_80_beat_4-4.mid".into());
+    }
+    let map = NoteMap::builtin("roland-td").unwrap();
+    let kit = Kit::load(Path::new(&std::env::var("KIT").unwrap_or("default".into()))).unwrap();
+    let model = HandModel::shipped();
+    let library = shipped_library().unwrap();
+    for take in takes {
+        let perf = read_file(Path::new(&take), &ReadOptions { channel: 10 }).unwrap();
+        let predicted = model_hands(&model, &perf, &map);
+        let planned = perform_planned(&perf, &map, &kit, &predicted, &library).unwrap();
+        let started = std::time::Instant::now();
+        let take_ = play(&kit, &planned.hands, perf.notes_end_s + 0.5).unwrap();
+        let wall = started.elapsed().as_secs_f64();
+        // Hand notes only (feet are not simulated yet).
+        let all = onsets(&perf, &map);
+        let hand: Vec<_> = all.iter().filter(|o| o.zone != Zone::Pedal).cloned().collect();
+        let (of, played) = match_contacts(&hand, &take_.messages);
+        let hit = played.iter().filter(|p| **p).count();
+        let spurious: Vec<_> = of.iter().enumerate().filter(|(_, o)| o.is_none()).map(|(i, _)| i).collect();
+        let mut errs = Vec::new();
+        let mut first = vec![None; hand.len()];
+        for (k, o) in of.iter().enumerate() {
+            if let Some(i) = *o {
+                if first[i].is_none() {
+                    first[i] = Some(k);
+                    errs.push((take_.messages[k].time_s as f64 - hand[i].time_s) * 1e3);
+                }
+            }
+        }
+        let mean = errs.iter().sum::<f64>() / errs.len().max(1) as f64;
+        let sd = (errs.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / errs.len().max(1) as f64).sqrt();
+        println!(
+            "{take}: {:.1} s in {wall:.1} s ({:.1}x real time); hand notes {} hit {:.2} %, contacts {} spurious {} ({:.2} %); timing {mean:+.2} / sd {sd:.2} ms; sank {:.1} mm, energy {:.0} J, finite {}",
+            perf.notes_end_s,
+            perf.notes_end_s / wall,
+            hand.len(),
+            100.0 * hit as f64 / hand.len().max(1) as f64,
+            of.len(),
+            spurious.len(),
+            100.0 * spurious.len() as f64 / of.len().max(1) as f64,
+            take_.max_penetration_m * 1e3,
+            take_.max_energy_j,
+            take_.finite
+        );
+        if std::env::var_os("VERBOSE").is_some() {
+            for &k in spurious.iter().take(15) {
+                let m = &take_.messages[k];
+                let near = hand
+                    .iter()
+                    .filter(|o| o.piece == m.piece)
+                    .min_by(|a, b| (a.time_s - m.time_s as f64).abs().total_cmp(&(b.time_s - m.time_s as f64).abs()));
+                let dt = near.map_or(f64::NAN, |o| (m.time_s as f64 - o.time_s) * 1e3);
+                println!(
+                    "  spurious {:.3} s {} {:.2} m/s limb {:?}; nearest note on it {dt:+.1} ms",
+                    m.time_s, m.piece, m.speed_mps, m.limb
+                );
+            }
+            for (o, _) in hand.iter().zip(&played).filter(|(_, p)| !**p).take(15) {
+                println!("  missed {:.3} s {} {:?} v{}", o.time_s, o.piece, o.zone, o.velocity);
+            }
+        }
+    }
+}

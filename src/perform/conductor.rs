@@ -1,0 +1,87 @@
+//! The conductor: the body driven by 250 Hz tip targets, one task period (40 physics steps
+//! at 10 kHz) at a time, Algorithm 2's loop. The offline render and the live mode call the
+//! same [`Conductor::period`]; only the clock that calls it differs.
+
+use super::targets::{TargetSettings, TipTargets};
+use crate::body::contacts::Strike;
+use crate::body::ik::ArmTarget;
+use crate::body::model::DT_S;
+use crate::body::sim::{Drummer, DrummerError, DrummerSettings, Mode};
+use crate::body::strokes::TASK_HZ;
+use crate::kit::{Kit, PieceKind};
+use crate::motion::plan::PlannedHands;
+use rapier3d::math::Vector;
+
+/// Physics steps per task period (10 kHz / 250 Hz).
+pub const STEPS_PER_PERIOD: usize = 40;
+
+/// Time the body spends reaching its first targets before the song starts, seconds. Its
+/// contacts in that time are not part of the performance.
+pub const PREROLL_S: f64 = 0.5;
+
+/// The body, its targets and where the song stands.
+pub struct Conductor {
+    drummer: Drummer,
+    targets: TipTargets,
+    /// Surface indices of the cymbals (plates without a drum below them).
+    plates: Vec<usize>,
+    /// Targets at the start of the current period.
+    from: [ArmTarget; 2],
+    /// Performance time of the next period's start, seconds (negative in the preroll).
+    t: f64,
+}
+
+impl Conductor {
+    pub fn new(kit: &Kit, planned: &PlannedHands, settings: DrummerSettings) -> Result<Conductor, DrummerError> {
+        let drummer = Drummer::new(kit, settings)?;
+        let bead = drummer.skel.stick.radius_m;
+        let targets = TipTargets::new(planned, bead, TargetSettings::default());
+        let plates = drummer
+            .surfaces()
+            .iter()
+            .enumerate()
+            .filter(|(i, s)| kit.pieces[*i].kind == PieceKind::Plate && !s.id.ends_with("_rim"))
+            .map(|(i, _)| i)
+            .collect();
+        let t = -PREROLL_S;
+        let from = [targets.at(0, t), targets.at(1, t)];
+        Ok(Conductor { drummer, targets, plates, from, t })
+    }
+
+    /// Performance time of the next period, seconds.
+    pub fn time_s(&self) -> f64 {
+        self.t
+    }
+
+    pub fn drummer(&self) -> &Drummer {
+        &self.drummer
+    }
+
+    /// One task period: the targets at its end, then 40 physics steps toward targets
+    /// interpolated from the previous period's. New strikes go to `sink` with their time in
+    /// performance seconds.
+    pub fn period(&mut self, sink: &mut impl FnMut(Strike)) {
+        let t1 = self.t + 1.0 / TASK_HZ;
+        let sim = self.drummer.tips(Mode::Himc);
+        let mut to = [self.targets.at(0, t1), self.targets.at(1, t1)];
+        let surfaces = self.drummer.surfaces();
+        for (h, target) in to.iter_mut().enumerate() {
+            self.targets.keep_out(target, sim[h], self.plates.iter().map(|&i| &surfaces[i]));
+        }
+        let offset = self.drummer.time_s() - self.t;
+        for k in 0..STEPS_PER_PERIOD {
+            let a = (k + 1) as f32 / STEPS_PER_PERIOD as f32;
+            let tg: [ArmTarget; 2] = std::array::from_fn(|h| ArmTarget {
+                tip: self.from[h].tip.lerp(to[h].tip, a),
+                dir: self.from[h].dir.lerp(to[h].dir, a).normalize_or(Vector::Y),
+            });
+            self.drummer.step_tips(Mode::Himc, &tg, &mut |mut s: Strike| {
+                s.time_s -= offset;
+                sink(s)
+            });
+        }
+        self.from = to;
+        self.t = t1;
+        debug_assert!((self.drummer.time_s() - offset - self.t).abs() < DT_S as f64);
+    }
+}

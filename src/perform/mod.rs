@@ -1,0 +1,18 @@
+//! The performer: the planned motion played by the simulated body (DESIGN.md section 2's
+//! `MIDI -> motion targets -> physics -> contact events -> sound`).
+//!
+//! - `targets.rs`: the body's 250 Hz stick-tip targets from the planned hands (the bead's
+//!   radius, a press into the surface at the onset, a keep-out under cymbals).
+//! - `conductor.rs`: one task period of Algorithm 2 (40 physics steps toward interpolated
+//!   targets); the step function offline and live share.
+//! - `offline.rs`: a whole song, its contacts as contact messages, the simulated tips.
+//! - `matching.rs`: which note each contact played (bookkeeping for files and reports; the
+//!   sound never reads it).
+
+pub mod conductor;
+pub mod matching;
+pub mod offline;
+pub mod targets;
+
+pub use conductor::{Conductor, PREROLL_S, STEPS_PER_PERIOD};
+pub use offline::{play, PhysicalTake};

@@ -1,0 +1,65 @@
+//! A whole song played by the body, offline: the conductor's periods from the preroll to the
+//! end, every new contact kept with its performance time, the simulated tips at 60 fps, and
+//! what the stability checks need (penetration, energy, finiteness).
+
+use super::conductor::{Conductor, PREROLL_S};
+use crate::body::contacts::Strike;
+use crate::body::sim::{DrummerError, DrummerSettings, Mode};
+use crate::body::strokes::TASK_HZ;
+use crate::interaction::ContactMessage;
+use crate::kit::Kit;
+use crate::motion::plan::PlannedHands;
+
+/// What the body did over a song.
+#[derive(Debug, Clone)]
+pub struct PhysicalTake {
+    /// Contacts from time 0 on (the preroll's are left out), in time order.
+    pub strikes: Vec<Strike>,
+    /// The contact messages of `strikes`, in the same order.
+    pub messages: Vec<ContactMessage>,
+    /// The simulated stick tips (left, right) at 60 fps from time 0.
+    pub tips: Vec<[[f32; 3]; 2]>,
+    /// Deepest a stick sank into a piece, metres.
+    pub max_penetration_m: f32,
+    /// Largest mechanical energy of the moving links, J.
+    pub max_energy_j: f32,
+    /// False if any tip left the finite numbers.
+    pub finite: bool,
+    /// Physics steps taken (preroll included).
+    pub steps: u64,
+}
+
+/// Play `planned` on `kit` from the preroll until `end_s` (performance seconds).
+pub fn play(kit: &Kit, planned: &PlannedHands, end_s: f64) -> Result<PhysicalTake, DrummerError> {
+    let mut c = Conductor::new(kit, planned, DrummerSettings::default())?;
+    let periods = ((end_s + PREROLL_S) * TASK_HZ).ceil().max(0.0) as usize;
+    let mut strikes = Vec::new();
+    let mut tips = Vec::with_capacity((end_s.max(0.0) * 60.0) as usize + 2);
+    let (mut max_energy_j, mut finite) = (0.0f32, true);
+    for _ in 0..periods {
+        c.period(&mut |s| {
+            if s.time_s >= 0.0 {
+                strikes.push(s)
+            }
+        });
+        let t = c.time_s();
+        // The 60 fps frames that fall in this period.
+        while t >= 0.0 && (tips.len() as f64) / 60.0 <= t {
+            let tip = c.drummer().tips(Mode::Himc);
+            finite &= tip.iter().all(|v| v.is_finite());
+            tips.push(tip.map(|v| [v.x, v.y, v.z]));
+        }
+        max_energy_j = max_energy_j.max(c.drummer().energy_j());
+    }
+    let surfaces = c.drummer().surfaces();
+    let messages = strikes.iter().map(|s| s.message(surfaces)).collect();
+    Ok(PhysicalTake {
+        strikes,
+        messages,
+        tips,
+        max_penetration_m: c.drummer().max_penetration_m(),
+        max_energy_j,
+        finite,
+        steps: c.drummer().steps(),
+    })
+}

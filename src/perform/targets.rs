@@ -1,0 +1,90 @@
+//! The body's 250 Hz stick-tip targets from the planned hands.
+//!
+//! The motion stage plans where each stick tip *is*; the body needs where to *aim*. Three
+//! things differ:
+//! - the tip's bead has a radius: the planned tip on the strike point becomes the bead's
+//!   centre that far above it, so the bead touches the surface exactly at the onset;
+//! - an impact needs a stick still moving into the surface when it arrives: after the
+//!   touch the target carries on down at the stroke's speed for a few millimetres (the drum
+//!   stops the stick; the body clamps targets inside a drum to 1 cm below its head);
+//! - the planned travel knows nothing of the kit's solids: a tip below a cymbal's plane and
+//!   under it is aimed radially out past its edge until it has come up beside it, so a
+//!   stick never gets caught under the hi-hat or a crash on its way to strike it.
+
+use crate::body::ik::ArmTarget;
+use crate::body::model::Surface;
+use crate::motion::plan::{PlannedHands, StrokeSettings};
+use rapier3d::math::Vector;
+
+/// How the targets are made.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TargetSettings {
+    /// How far past the touch the target presses into the surface, m.
+    pub press_m: f32,
+    /// Clearance kept around a plate's edge while the tip is below its plane, m.
+    pub plate_clearance_m: f32,
+    /// How far below a plate's plane the keep-out reaches, m.
+    pub plate_keepout_depth_m: f32,
+}
+
+impl Default for TargetSettings {
+    fn default() -> Self {
+        TargetSettings { press_m: 0.008, plate_clearance_m: 0.03, plate_keepout_depth_m: 0.15 }
+    }
+}
+
+/// Tip targets for both hands, evaluated at any time.
+pub struct TipTargets {
+    planned: PlannedHands,
+    bead_m: f32,
+    settings: TargetSettings,
+}
+
+impl TipTargets {
+    /// From the motion stage's plan: the same strokes, touching at the onset itself (no
+    /// dwell), aimed for a bead of radius `bead_m`.
+    pub fn new(planned: &PlannedHands, bead_m: f32, settings: TargetSettings) -> TipTargets {
+        let planned = planned.with_settings(StrokeSettings { dwell_s: 0.0, ..StrokeSettings::default() });
+        TipTargets { planned, bead_m, settings }
+    }
+
+    /// The target of `hand` at `t` (before the keep-out, which needs the body's state).
+    pub fn at(&self, hand: usize, t: f64) -> ArmTarget {
+        let tip = self.planned.strike_tip(hand, t, self.bead_m, self.settings.press_m);
+        let pose = self.planned.pose(hand, t);
+        let y = pose.apply([0.0, 1.0, 0.0]);
+        let dir = Vector::new(y[0] - pose.pos[0], y[1] - pose.pos[1], y[2] - pose.pos[2]).normalize_or(Vector::Y);
+        ArmTarget { tip: Vector::from(tip), dir }
+    }
+
+    /// Move `target` out from under any plate that the simulated tip `sim_tip` is below:
+    /// radially to the plate's edge plus the clearance, keeping its height.
+    pub fn keep_out<'a>(&self, target: &mut ArmTarget, sim_tip: Vector, plates: impl IntoIterator<Item = &'a Surface>) {
+        let s = &self.settings;
+        for p in plates {
+            let h_sim = p.height(sim_tip);
+            // On top (the bead's centre above the plane, even pressed into it): nothing to do.
+            if h_sim >= 0.0 || h_sim < -s.plate_keepout_depth_m {
+                continue;
+            }
+            let h = p.height(target.tip);
+            if h < -s.plate_keepout_depth_m {
+                continue;
+            }
+            let planar = target.tip - p.center - p.normal * h;
+            let reach = p.radius_m + s.plate_clearance_m;
+            let r = planar.length();
+            if r < reach {
+                // Out along the line from the plate's axis through the tip (the simulated
+                // tip's side when the target sits on the axis).
+                let side = if r > 1e-4 {
+                    planar / r
+                } else {
+                    let d = sim_tip - p.center;
+                    (d - p.normal * d.dot(p.normal)).normalize_or(p.u)
+                };
+                target.tip = p.center + p.normal * h + side * reach;
+            }
+        }
+    }
+}
