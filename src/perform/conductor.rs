@@ -25,6 +25,8 @@ pub struct Conductor {
     targets: TipTargets,
     /// Surface indices of the cymbals (plates without a drum below them).
     plates: Vec<usize>,
+    /// The kit piece each surface belongs to (a hoop's is its drum).
+    piece_of: Vec<usize>,
     /// Targets at the start of the current period.
     from: [ArmTarget; 2],
     /// Performance time of the next period's start, seconds (negative in the preroll).
@@ -43,9 +45,15 @@ impl Conductor {
             .filter(|(i, s)| kit.pieces[*i].kind == PieceKind::Plate && !s.id.ends_with("_rim"))
             .map(|(i, _)| i)
             .collect();
+        let piece_of = drummer
+            .surfaces()
+            .iter()
+            .enumerate()
+            .map(|(i, s)| s.id.strip_suffix("_rim").and_then(|d| kit.index_of(d)).unwrap_or(i))
+            .collect();
         let t = -PREROLL_S;
         let from = [targets.at(0, t), targets.at(1, t)];
-        Ok(Conductor { drummer, targets, plates, from, t })
+        Ok(Conductor { drummer, targets, plates, piece_of, from, t })
     }
 
     /// Performance time of the next period, seconds.
@@ -66,6 +74,7 @@ impl Conductor {
         let mut to = [self.targets.at(0, t1), self.targets.at(1, t1)];
         let surfaces = self.drummer.surfaces();
         for (h, target) in to.iter_mut().enumerate() {
+            self.targets.clear(h, t1, target, surfaces, &self.piece_of);
             self.targets.keep_out(target, sim[h], self.plates.iter().map(|&i| &surfaces[i]));
         }
         let offset = self.drummer.time_s() - self.t;

@@ -25,11 +25,27 @@ pub struct TargetSettings {
     pub plate_clearance_m: f32,
     /// How far below a plate's plane the keep-out reaches, m.
     pub plate_keepout_depth_m: f32,
+    /// Height the bead keeps above a piece it is not striking, m.
+    pub clearance_m: f32,
+    /// How far below a surface a target is still raised by the clearance (deeper ones are
+    /// inside a drum, which the body's own clamp handles), m.
+    pub clearance_depth_m: f32,
+    /// The struck piece is exempt from the clearance this long before the onset and after.
+    pub guard_before_s: f64,
+    pub guard_after_s: f64,
 }
 
 impl Default for TargetSettings {
     fn default() -> Self {
-        TargetSettings { press_m: 0.008, plate_clearance_m: 0.03, plate_keepout_depth_m: 0.15 }
+        TargetSettings {
+            press_m: 0.004,
+            plate_clearance_m: 0.03,
+            plate_keepout_depth_m: 0.15,
+            clearance_m: 0.015,
+            clearance_depth_m: 0.02,
+            guard_before_s: 0.040,
+            guard_after_s: 0.025,
+        }
     }
 }
 
@@ -55,6 +71,35 @@ impl TipTargets {
         let y = pose.apply([0.0, 1.0, 0.0]);
         let dir = Vector::new(y[0] - pose.pos[0], y[1] - pose.pos[1], y[2] - pose.pos[2]).normalize_or(Vector::Y);
         ArmTarget { tip: Vector::from(tip), dir }
+    }
+
+    /// Keep `target` of `hand` at `t` clear of every surface its stroke is not striking: a
+    /// target over a piece (within its radius and the bead's) lower than the bead plus
+    /// [`TargetSettings::clearance_m`] above it is raised to that height. The piece of the
+    /// hand's nearest note is exempt from `guard_before_s` before its onset to
+    /// `guard_after_s` after it (`piece_of[i]`: the kit piece surface `i` belongs to, a hoop's
+    /// being its drum's). So a stick neither rests nor grazes where no note is, nor
+    /// bounces a second time on the piece it has just struck.
+    pub fn clear(&self, hand: usize, t: f64, target: &mut ArmTarget, surfaces: &[Surface], piece_of: &[usize]) {
+        let s = &self.settings;
+        let note = self.planned.note_near(hand, t);
+        let floor = self.bead_m + s.clearance_m;
+        for (i, surface) in surfaces.iter().enumerate() {
+            if let Some(n) = note {
+                let dt = t - n.time_s;
+                if piece_of[i] == n.piece && dt > -s.guard_before_s && dt < s.guard_after_s {
+                    continue;
+                }
+            }
+            let h = surface.height(target.tip);
+            if h >= floor || h < -s.clearance_depth_m {
+                continue;
+            }
+            let planar = target.tip - surface.center - surface.normal * h;
+            if planar.length() <= surface.radius_m + self.bead_m {
+                target.tip += surface.normal * (floor - h);
+            }
+        }
     }
 
     /// Move `target` out from under any plate that the simulated tip `sim_tip` is below:

@@ -122,6 +122,11 @@ pub fn plan_hands(
 }
 
 impl PlannedHands {
+    /// The note of `hand` nearest `t` (the one whose stroke holds `t`).
+    pub fn note_near(&self, hand: usize, t: f64) -> Option<&HandNote> {
+        self.nearest(hand, t).map(|k| &self.notes[hand][k].0)
+    }
+
     /// The same plan with other stroke settings (the offsets onto the strike points stay).
     pub fn with_settings(&self, settings: StrokeSettings) -> PlannedHands {
         PlannedHands { settings, ..self.clone() }

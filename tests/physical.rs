@@ -1,0 +1,111 @@
+//! `render --sound physical`: the sound comes from the simulated body's stick contacts.
+//! These hold what the physical render reaches today (the targets are higher; the
+//! README lists both): hand notes hit within 10 ms, contacts that play no note, timing,
+//! sticks that do not sink, and repeatability.
+
+use drumsim::kit::Kit;
+use drumsim::midi::{read_file, NoteMap, ReadOptions, Zone};
+use drumsim::motion::hands::HandModel;
+use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
+use drumsim::perform::matching::{match_contacts, onsets};
+use drumsim::perform::play;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn fresh_dir(tag: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("physical-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn mean_sd(v: &[f64]) -> (f64, f64) {
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    (m, (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt())
+}
+
+#[test]
+fn the_demo_rendered_physically_sounds_the_body_s_contacts_on_time_and_repeats_exactly() {
+    let song = root().join("assets/demo/demo.mid");
+    let mut wavs = Vec::new();
+    for run in 0..2 {
+        let out = fresh_dir(&format!("demo{run}"));
+        let r = Command::new(env!("CARGO_BIN_EXE_drumsim"))
+            .args(["render", song.to_str().unwrap(), "--out", out.to_str().unwrap(), "--sound", "physical"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&r.stderr).into_owned();
+        assert!(r.status.success(), "{stderr}");
+        assert!(stderr.contains("physical: ") && stderr.contains("hand notes hit within 10 ms"), "{stderr}");
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("demo.contacts.json")).unwrap()).unwrap();
+        assert_eq!(json["sound"], "physical");
+        let contacts = json["contacts"].as_array().unwrap();
+        // Every contact is one the physics measured: an impulse, a hand, a piece.
+        assert!(contacts.len() > 80, "{} contacts", contacts.len());
+        assert!(contacts.iter().all(|c| c["impulse_ns"].as_f64().unwrap() > 0.0 && c["limb"].as_i64().unwrap() <= 1));
+        let played: Vec<&serde_json::Value> = contacts.iter().filter(|c| !c["note"].is_null()).collect();
+        assert!(
+            played.len() * 100 >= contacts.len() * 90,
+            "{} of {} contacts played a note",
+            played.len(),
+            contacts.len()
+        );
+        let errs: Vec<f64> = played
+            .iter()
+            .map(|c| 1e3 * (c["time_s"].as_f64().unwrap() - c["note"]["time_s"].as_f64().unwrap()))
+            .collect();
+        let (mean, sd) = mean_sd(&errs);
+        eprintln!(
+            "demo: {} contacts, {} played a note, timing {mean:+.2} / sd {sd:.2} ms",
+            contacts.len(),
+            played.len()
+        );
+        assert!(mean.abs() <= 2.0 && sd <= 3.0, "timing {mean:+.2} / {sd:.2} ms");
+        assert!(errs.iter().all(|e| e.abs() <= 10.0));
+        wavs.push(std::fs::read(out.join("demo.wav")).unwrap());
+    }
+    assert!(wavs[0] == wavs[1], "two physical renders of the demo differ");
+}
+
+#[test]
+fn a_groove_midi_funk_take_is_played_by_the_body() {
+    let map = NoteMap::builtin("roland-td").unwrap();
+    let kit = Kit::builtin_default();
+    let song = root().join("data/gmd/drummer1/session1/1_funk_80_beat_4-4.mid");
+    let perf = read_file(&song, &ReadOptions { channel: 10 }).unwrap();
+    let predicted = model_hands(&HandModel::shipped(), &perf, &map);
+    let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library().unwrap()).unwrap();
+    let take = play(&kit, &planned.hands, perf.notes_end_s + 0.5).unwrap();
+    let hand: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.zone != Zone::Pedal).collect();
+    let (of, played) = match_contacts(&hand, &take.messages);
+    let recall = played.iter().filter(|p| **p).count() as f64 / hand.len() as f64;
+    let spurious = of.iter().filter(|o| o.is_none()).count() as f64 / of.len() as f64;
+    let errs: Vec<f64> = of
+        .iter()
+        .zip(&take.messages)
+        .filter_map(|(o, m)| o.map(|i| 1e3 * (m.time_s as f64 - hand[i].time_s)))
+        .collect();
+    let (mean, sd) = mean_sd(&errs);
+    eprintln!(
+        "funk: recall {:.2} %, spurious {:.2} % of {} contacts, timing {mean:+.2} / sd {sd:.2} ms, deepest {:.1} mm, energy <= {:.0} J",
+        100.0 * recall,
+        100.0 * spurious,
+        of.len(),
+        take.max_penetration_m * 1e3,
+        take.max_energy_j
+    );
+    assert!(take.finite);
+    assert!(recall >= 0.90, "recall {recall}");
+    assert!(spurious <= 0.12, "spurious {spurious}");
+    assert!(mean.abs() <= 1.5 && sd <= 3.0, "timing {mean:+.2} / {sd:.2} ms");
+    assert!(take.max_penetration_m <= 0.006, "sank {} m", take.max_penetration_m);
+    // Bounded: the seated body's potential energy plus the strokes' kinetic energy.
+    assert!(take.max_energy_j < 1000.0, "{} J", take.max_energy_j);
+    // Tips at 60 fps for the whole song.
+    assert!((take.tips.len() as f64 - (perf.notes_end_s + 0.5) * 60.0).abs() <= 2.0);
+}
