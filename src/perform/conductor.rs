@@ -15,6 +15,9 @@ use rapier3d::math::Vector;
 /// Physics steps per task period (10 kHz / 250 Hz).
 pub const STEPS_PER_PERIOD: usize = 40;
 
+/// A contact this close to the onset of the note the hand is playing is that note's.
+pub const TOUCH_WINDOW_S: f64 = 0.030;
+
 /// Time the body spends reaching its first targets before the song starts, seconds. Its
 /// contacts in that time are not part of the performance.
 pub const PREROLL_S: f64 = 0.5;
@@ -29,6 +32,8 @@ pub struct Conductor {
     piece_of: Vec<usize>,
     /// Targets at the start of the current period.
     from: [ArmTarget; 2],
+    /// Per hand, the last stroke the stick was felt to land: (the note's onset, contact time).
+    touched: [Option<(f64, f64)>; 2],
     /// Performance time of the next period's start, seconds (negative in the preroll).
     t: f64,
 }
@@ -52,8 +57,8 @@ impl Conductor {
             .map(|(i, s)| s.id.strip_suffix("_rim").and_then(|d| kit.index_of(d)).unwrap_or(i))
             .collect();
         let t = -PREROLL_S;
-        let from = [targets.at(0, t), targets.at(1, t)];
-        Ok(Conductor { drummer, targets, plates, piece_of, from, t })
+        let from = [targets.at(0, t, None), targets.at(1, t, None)];
+        Ok(Conductor { drummer, targets, plates, piece_of, from, touched: [None; 2], t })
     }
 
     /// Performance time of the next period, seconds.
@@ -65,29 +70,53 @@ impl Conductor {
         &self.drummer
     }
 
+    /// The targets the last period ended on.
+    pub fn last_targets(&self) -> &[ArmTarget; 2] {
+        &self.from
+    }
+
     /// One task period: the targets at its end, then 40 physics steps toward targets
     /// interpolated from the previous period's. New strikes go to `sink` with their time in
     /// performance seconds.
     pub fn period(&mut self, sink: &mut impl FnMut(Strike)) {
         let t1 = self.t + 1.0 / TASK_HZ;
         let sim = self.drummer.tips(Mode::Himc);
-        let mut to = [self.targets.at(0, t1), self.targets.at(1, t1)];
+        let mut to = [self.targets.at(0, t1, self.touched[0]), self.targets.at(1, t1, self.touched[1])];
         let surfaces = self.drummer.surfaces();
         for (h, target) in to.iter_mut().enumerate() {
             self.targets.clear(h, t1, target, surfaces, &self.piece_of);
             self.targets.keep_out(target, sim[h], self.plates.iter().map(|&i| &surfaces[i]));
         }
         let offset = self.drummer.time_s() - self.t;
+        // Each hand's interpolation runs from `start` at step `k0` to `to` at the period's end.
+        let mut start = self.from;
+        let mut k0 = [0usize; 2];
         for k in 0..STEPS_PER_PERIOD {
-            let a = (k + 1) as f32 / STEPS_PER_PERIOD as f32;
-            let tg: [ArmTarget; 2] = std::array::from_fn(|h| ArmTarget {
-                tip: self.from[h].tip.lerp(to[h].tip, a),
-                dir: self.from[h].dir.lerp(to[h].dir, a).normalize_or(Vector::Y),
+            let tg: [ArmTarget; 2] = std::array::from_fn(|h| {
+                let a = (k + 1 - k0[h]) as f32 / (STEPS_PER_PERIOD - k0[h]) as f32;
+                ArmTarget {
+                    tip: start[h].tip.lerp(to[h].tip, a),
+                    dir: start[h].dir.lerp(to[h].dir, a).normalize_or(Vector::Y),
+                }
             });
+            let before = self.touched;
+            let (targets, piece_of, touched) = (&self.targets, &self.piece_of, &mut self.touched);
             self.drummer.step_tips(Mode::Himc, &tg, &mut |mut s: Strike| {
                 s.time_s -= offset;
+                // The hand feels its stroke land: its targets rebound from here.
+                if let Some(onset) = targets.note_touched(s.side, s.time_s, piece_of[s.surface], TOUCH_WINDOW_S) {
+                    touched[s.side] = Some((onset, s.time_s));
+                }
                 sink(s)
             });
+            for h in 0..2 {
+                if self.touched[h] != before[h] && k + 1 < STEPS_PER_PERIOD {
+                    // Mid-period: the rest of the period heads for the rebound at once.
+                    to[h] = self.targets.at(h, t1, self.touched[h]);
+                    start[h] = tg[h];
+                    k0[h] = k + 1;
+                }
+            }
         }
         self.from = to;
         self.t = t1;

@@ -38,7 +38,7 @@ pub struct TargetSettings {
 impl Default for TargetSettings {
     fn default() -> Self {
         TargetSettings {
-            press_m: 0.004,
+            press_m: 0.010,
             plate_clearance_m: 0.03,
             plate_keepout_depth_m: 0.15,
             clearance_m: 0.015,
@@ -64,9 +64,10 @@ impl TipTargets {
         TipTargets { planned, bead_m, settings }
     }
 
-    /// The target of `hand` at `t` (before the keep-out, which needs the body's state).
-    pub fn at(&self, hand: usize, t: f64) -> ArmTarget {
-        let tip = self.planned.strike_tip(hand, t, self.bead_m, self.settings.press_m);
+    /// The target of `hand` at `t` (before the clearance and keep-out, which need the body's
+    /// state). `contact`: (a note's onset, when the simulated stick touched its piece).
+    pub fn at(&self, hand: usize, t: f64, contact: Option<(f64, f64)>) -> ArmTarget {
+        let tip = self.planned.strike_tip(hand, t, self.bead_m, self.settings.press_m, contact);
         let pose = self.planned.pose(hand, t);
         let y = pose.apply([0.0, 1.0, 0.0]);
         let dir = Vector::new(y[0] - pose.pos[0], y[1] - pose.pos[1], y[2] - pose.pos[2]).normalize_or(Vector::Y);
@@ -104,6 +105,13 @@ impl TipTargets {
 
     /// Move `target` out from under any plate that the simulated tip `sim_tip` is below:
     /// radially to the plate's edge plus the clearance, keeping its height.
+    /// The onset of the note `hand` is playing at `t`, if the stick touching `piece` then
+    /// is that note's contact: its piece, within `window_s` of its onset.
+    pub fn note_touched(&self, hand: usize, t: f64, piece: usize, window_s: f64) -> Option<f64> {
+        let n = self.planned.note_near(hand, t)?;
+        (n.piece == piece && (t - n.time_s).abs() <= window_s).then_some(n.time_s)
+    }
+
     pub fn keep_out<'a>(&self, target: &mut ArmTarget, sim_tip: Vector, plates: impl IntoIterator<Item = &'a Surface>) {
         let s = &self.settings;
         for p in plates {

@@ -203,21 +203,24 @@ impl PlannedHands {
 
     /// The stick tip's *centre* as the simulated body should aim it at `t`: the planned tip
     /// lifted by the bead's radius `bead_m` along the surface's normal around each hit, so
-    /// the bead touches the surface exactly when the planned tip does, and, for `press_m`
-    /// after that touch, carried on down at the stroke's speed (the drum stops the stick; the
-    /// target pressing into it is what makes a physical impact at that speed). The rebound
-    /// follows after the press. With `dwell_s` 0 in the settings the touch is at the onset.
-    pub fn strike_tip(&self, hand: usize, t: f64, bead_m: f32, press_m: f32) -> [f32; 3] {
+    /// the bead touches the surface exactly when the planned tip does, and after that touch
+    /// carried on down at the stroke's speed, up to `press_m` into the surface (the drum
+    /// stops the stick; a target pressing into it is what makes a physical impact at that
+    /// speed), until the stick is felt to touch: `contact` is (the note's onset, when the
+    /// simulated stick touched that note's piece). From the touch, or from the end of the
+    /// press when none came, the tip follows the planned rebound. With `dwell_s` 0 in the
+    /// settings the planned touch is at the onset.
+    pub fn strike_tip(&self, hand: usize, t: f64, bead_m: f32, press_m: f32, contact: Option<(f64, f64)>) -> [f32; 3] {
         let Some(k) = self.nearest(hand, t) else { return self.tip(hand, t) };
         let n = self.notes[hand][k].0;
         let press_s = (press_m / n.speed_mps.max(0.1)) as f64;
         let dt = t - n.time_s;
-        let (t_plan, below) = if dt < 0.0 {
-            (t, 0.0)
-        } else if dt < press_s {
-            (n.time_s, n.speed_mps * dt as f32)
-        } else {
-            (t - press_s, 0.0)
+        let touched = contact.filter(|&(onset, _)| onset == n.time_s).map(|(_, tc)| tc);
+        let (t_plan, below) = match touched {
+            Some(tc) if t >= tc => (n.time_s + (t - tc), 0.0),
+            _ if dt < 0.0 => (t, 0.0),
+            _ if dt < press_s => (n.time_s, n.speed_mps * dt as f32),
+            _ => (t - press_s, 0.0),
         };
         let p = self.tip(hand, t_plan);
         let (_, w) = self.stroke(hand, k, t_plan);

@@ -1,0 +1,54 @@
+//! Trace one hand of the physical performance around a moment: the target's and the
+//! simulated tip's height over a piece, per task period, and the contacts.
+//! `cargo run --release --example physical_trace TAKE.mid TIME_S HAND PIECE [KIT]`.
+
+use drumsim::body::sim::{DrummerSettings, Mode};
+use drumsim::kit::Kit;
+use drumsim::midi::{read_file, NoteMap, ReadOptions};
+use drumsim::motion::hands::HandModel;
+use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
+use drumsim::perform::Conductor;
+use std::path::Path;
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    let take = &a[1];
+    let at: f64 = a[2].parse().unwrap();
+    let hand: usize = a[3].parse().unwrap();
+    let piece = &a[4];
+    let kit = Kit::load(Path::new(a.get(5).map(String::as_str).unwrap_or("default"))).unwrap();
+    let map = NoteMap::builtin("roland-td").unwrap();
+    let perf = read_file(Path::new(take), &ReadOptions { channel: 10 }).unwrap();
+    let predicted = model_hands(&HandModel::shipped(), &perf, &map);
+    let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library().unwrap()).unwrap();
+    for n in planned.hands.notes(hand).filter(|n| (n.time_s - at).abs() < 0.3) {
+        println!("note {:.3} s {} v{} speed {:.2} m/s", n.time_s, kit.pieces[n.piece].id, n.velocity, n.speed_mps);
+    }
+    let mut c = Conductor::new(&kit, &planned.hands, DrummerSettings::default()).unwrap();
+    let k = c.drummer().surfaces().iter().position(|s| &s.id == piece).expect("piece");
+    while c.time_s() < at + 0.15 {
+        let mut hits = Vec::new();
+        c.period(&mut |s| hits.push(s));
+        let t = c.time_s();
+        if t > at - 0.15 {
+            let s = &c.drummer().surfaces()[k];
+            let tip = c.drummer().tips(Mode::Himc)[hand];
+            let target = c.last_targets()[hand].tip;
+            println!(
+                "t {t:.3} target h {:+6.1} mm sim h {:+6.1} mm  planar {:5.1} mm {}",
+                s.height(target) * 1e3,
+                s.height(tip) * 1e3,
+                ((tip - s.center) - s.normal * s.height(tip)).length() * 1e3,
+                hits.iter()
+                    .map(|h| format!(
+                        "[{} {} {:.3} s {:.2} m/s]",
+                        h.side,
+                        c.drummer().surfaces()[h.surface].id,
+                        h.time_s,
+                        h.speed_mps
+                    ))
+                    .collect::<String>()
+            );
+        }
+    }
+}
