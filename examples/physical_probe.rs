@@ -10,6 +10,11 @@ use drumsim::perform::matching::{match_contacts, onsets};
 use drumsim::perform::play;
 use std::path::Path;
 
+/// Pedal notes on `piece`: hit (`hit` true) or all.
+fn count(notes: &[drumsim::perform::matching::Onset], played: &[bool], piece: &str, hit: bool) -> usize {
+    notes.iter().zip(played).filter(|(o, p)| o.zone == Zone::Pedal && o.piece == piece && (**p || !hit)).count()
+}
+
 fn main() {
     let mut takes: Vec<String> = std::env::args().skip(1).collect();
     if takes.is_empty() {
@@ -24,11 +29,10 @@ fn main() {
         let predicted = model_hands(&model, &perf, &map);
         let planned = perform_planned(&perf, &map, &kit, &predicted, &library).unwrap();
         let started = std::time::Instant::now();
-        let take_ = play(&kit, &planned.hands, perf.notes_end_s + 0.5).unwrap();
+        let take_ = play(&kit, &perf, &map, &planned, perf.notes_end_s + 0.5).unwrap();
         let wall = started.elapsed().as_secs_f64();
-        // Hand notes only (feet are not simulated yet).
         let all = onsets(&perf, &map);
-        let hand: Vec<_> = all.iter().filter(|o| o.zone != Zone::Pedal).cloned().collect();
+        let hand = all.clone();
         let (of, played) = match_contacts(&hand, &take_.messages);
         let hit = played.iter().filter(|p| **p).count();
         let spurious: Vec<_> = of.iter().enumerate().filter(|(_, o)| o.is_none()).map(|(i, _)| i).collect();
@@ -45,11 +49,15 @@ fn main() {
         let mean = errs.iter().sum::<f64>() / errs.len().max(1) as f64;
         let sd = (errs.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / errs.len().max(1) as f64).sqrt();
         println!(
-            "{take}: {:.1} s in {wall:.1} s ({:.1}x real time); hand notes {} hit {:.2} %, contacts {} spurious {} ({:.2} %); timing {mean:+.2} / sd {sd:.2} ms; sank {:.1} mm, energy {:.0} J, finite {}",
+            "{take}: {:.1} s in {wall:.1} s ({:.1}x real time); notes {} hit {:.2} % (kick {}/{}, hi-hat pedal {}/{}), contacts {} spurious {} ({:.2} %); timing {mean:+.2} / sd {sd:.2} ms; sank {:.1} mm, energy {:.0} J, finite {}",
             perf.notes_end_s,
             perf.notes_end_s / wall,
             hand.len(),
             100.0 * hit as f64 / hand.len().max(1) as f64,
+            count(&hand, &played, "kick", true),
+            count(&hand, &played, "kick", false),
+            count(&hand, &played, "hihat", true),
+            count(&hand, &played, "hihat", false),
             of.len(),
             spurious.len(),
             100.0 * spurious.len() as f64 / of.len().max(1) as f64,

@@ -24,7 +24,7 @@ fn main() {
     for n in planned.hands.notes(hand).filter(|n| (n.time_s - at).abs() < 0.3) {
         println!("note {:.3} s {} v{} speed {:.2} m/s", n.time_s, kit.pieces[n.piece].id, n.velocity, n.speed_mps);
     }
-    let mut c = Conductor::new(&kit, &planned.hands, DrummerSettings::default()).unwrap();
+    let mut c = Conductor::new(&kit, &perf, &map, &planned, DrummerSettings::default()).unwrap();
     let k = c.drummer().surfaces().iter().position(|s| &s.id == piece).expect("piece");
     while c.time_s() < at + 0.15 {
         let mut hits = Vec::new();

@@ -221,18 +221,14 @@ impl std::fmt::Display for RenderReport {
         if let Some(p) = &self.physical {
             writeln!(
                 f,
-                "physical: {} of {} hand notes hit within 10 ms ({:.2} %), {} contacts that played no note, deepest stick {:.1} mm, body in {:.2} s{}",
+                "physical: {} of {} notes hit within 10 ms ({:.2} %), {} contacts that played no note, deepest stick {:.1} mm, body in {:.2} s{}",
                 p.hit,
-                p.hand_notes,
-                100.0 * p.hit as f64 / p.hand_notes.max(1) as f64,
+                p.notes,
+                100.0 * p.hit as f64 / p.notes.max(1) as f64,
                 p.spurious,
                 p.max_penetration_mm,
                 p.seconds,
-                if p.pedal_notes > 0 {
-                    format!("; {} kick and hi-hat pedal notes not sounded (no simulated pedal yet)", p.pedal_notes)
-                } else {
-                    String::new()
-                }
+                if p.pedals { "" } else { "; the kit has no [pedals]: kick and hi-hat pedal notes are not played" }
             )?;
         }
         write!(
@@ -347,13 +343,13 @@ pub fn score_performance(perf: &Performance, kit: &Kit, map: &NoteMap) -> anyhow
 /// What the body did in a physical render.
 #[derive(Debug, Clone)]
 pub struct PhysicalSummary {
-    /// Notes the body plays (hand notes; feet are not simulated yet) and how many it hit.
-    pub hand_notes: usize,
+    /// Notes (hand and foot) and how many a contact played within 10 ms.
+    pub notes: usize,
     pub hit: usize,
     /// Contacts that played no note.
     pub spurious: usize,
-    /// Kick and hi-hat pedal notes, which have no simulated pedal yet (not sounded).
-    pub pedal_notes: usize,
+    /// Whether the kit has pedals (without, kick and hi-hat pedal notes are not played).
+    pub pedals: bool,
     pub max_penetration_mm: f32,
     pub seconds: f64,
 }
@@ -369,19 +365,18 @@ pub fn score_physical(
 ) -> anyhow::Result<(Score, PhysicalSummary)> {
     use crate::perform::matching::{match_contacts, onsets};
     let started = Instant::now();
-    let take = crate::perform::play(kit, &staged.planned.hands, perf.notes_end_s + 0.5)?;
+    let take = crate::perform::play(kit, perf, map, &staged.planned, perf.notes_end_s + 0.5)?;
     if !take.finite {
         anyhow::bail!("{}: the simulated body left the finite numbers", perf.path.display());
     }
     let all = onsets(perf, map);
     let (of_contact, played) = match_contacts(&all, &take.messages);
     let mut carrier = Carrier::new(perf, kit, map, "physical");
-    // The left foot's hi-hat openness, wherever it changes (60 fps).
+    // The simulated hi-hat's openness, wherever it changes (60 fps).
     let mut last = f32::NAN;
-    for (f, frame) in staged.planned.motion.frames.iter().enumerate() {
-        let o = frame.hihat_openness;
+    for (f, &o) in take.hihat_openness.iter().enumerate() {
         if last.is_nan() || (o - last).abs() >= 0.005 {
-            let time_s = (f as f64 / staged.planned.motion.fps) as f32;
+            let time_s = (f as f64 / 60.0) as f32;
             carrier.carry(&Message::HiHat { time_s, openness: o }, None)?;
             last = o;
         }
@@ -390,12 +385,11 @@ pub fn score_physical(
         let note = of.map(|i| NoteRef { note: all[i].note, velocity: all[i].velocity, time_s: all[i].time_s });
         carrier.carry(&Message::Contact(m.clone()), note)?;
     }
-    let is_pedal = |o: &crate::perform::matching::Onset| o.zone == crate::midi::Zone::Pedal;
     let summary = PhysicalSummary {
-        hand_notes: all.iter().filter(|o| !is_pedal(o)).count(),
-        hit: all.iter().zip(&played).filter(|(o, p)| **p && !is_pedal(o)).count(),
+        notes: all.len(),
+        hit: played.iter().filter(|p| **p).count(),
         spurious: of_contact.iter().filter(|o| o.is_none()).count(),
-        pedal_notes: all.iter().filter(|o| is_pedal(o)).count(),
+        pedals: kit.pedals.is_some(),
         max_penetration_mm: take.max_penetration_m * 1e3,
         seconds: started.elapsed().as_secs_f64(),
     };

@@ -25,7 +25,7 @@ pub const MIN_STRIKE_SPEED_MPS: f32 = 0.05;
 pub struct Strike {
     /// Index into the drummer's surfaces (the kit's pieces, in kit order).
     pub surface: usize,
-    /// 0 left stick, 1 right stick.
+    /// 0 left stick, 1 right stick, 2 kick beater (right foot), 3 hi-hat pedal (left foot).
     pub side: usize,
     pub time_s: f64,
     pub speed_mps: f32,
@@ -54,7 +54,12 @@ impl Strike {
             y_m: self.y_m,
             impulse_ns: self.impulse_ns,
             hardness: 1.0,
-            limb: if self.side == 0 { Limb::LeftHand } else { Limb::RightHand },
+            limb: match self.side {
+                0 => Limb::LeftHand,
+                1 => Limb::RightHand,
+                2 => Limb::RightFoot,
+                _ => Limb::LeftFoot,
+            },
         }
     }
 }

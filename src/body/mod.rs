@@ -13,6 +13,7 @@ pub mod limits;
 pub mod limits_data;
 pub mod model;
 pub mod pd;
+pub mod pedals;
 pub mod report;
 pub mod sim;
 pub mod skeleton;

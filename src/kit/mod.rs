@@ -89,6 +89,21 @@ impl StrikeSettings {
     }
 }
 
+/// Where the pedals are (the `[pedals]` table of a kit file).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pedals {
+    /// The kick pedal's beater axle, kit frame, m (below the kick head, in front of it).
+    pub kick_axle_m: [f32; 3],
+    /// From the axle to the beater ball's centre, m.
+    pub beater_length_m: f32,
+    /// The beater's rest angle back from the head, degrees.
+    pub beater_rest_deg: f32,
+    /// The hi-hat pedal's heel, kit frame, m (where the left foot sits).
+    pub hihat_pedal_m: [f32; 3],
+    /// Travel of the top hi-hat cymbal from closed to fully open, m.
+    pub hihat_travel_m: f32,
+}
+
 /// A validated kit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Kit {
@@ -96,6 +111,9 @@ pub struct Kit {
     pub pieces: Vec<Piece>,
     pub zones: Zones,
     pub strike: StrikeSettings,
+    /// The pedals; `None` when the kit file has no `[pedals]` table (the feet then play no
+    /// pedal: kick and hi-hat pedal notes are counted as unplayed in physical renders).
+    pub pedals: Option<Pedals>,
 }
 
 #[derive(Debug, thiserror::Error)]

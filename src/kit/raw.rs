@@ -1,6 +1,6 @@
 //! The kit file as written (serde), and its validation into [`super::Kit`].
 
-use super::{Kit, KitError, Piece, PieceKind, StrikeSettings, Wires, Zones};
+use super::{Kit, KitError, Pedals, Piece, PieceKind, StrikeSettings, Wires, Zones};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -17,6 +17,17 @@ struct RawKit {
     pieces: Vec<RawPiece>,
     zones: RawZones,
     strike: RawStrike,
+    pedals: Option<RawPedals>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPedals {
+    kick_axle_m: [f32; 3],
+    beater_length_m: f32,
+    beater_rest_deg: f32,
+    hihat_pedal_m: [f32; 3],
+    hihat_travel_m: f32,
 }
 
 #[derive(Deserialize)]
@@ -195,7 +206,25 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Kit, KitError> {
         beater_mass_kg: c.range("strike.beater_mass_kg", s.beater_mass_kg, 0.001, 2.0)?,
         hihat_foot_mass_kg: c.range("strike.hihat_foot_mass_kg", s.hihat_foot_mass_kg, 0.001, 5.0)?,
     };
-    Ok(Kit { name: raw.name, pieces, zones, strike })
+    let pedals = match raw.pedals {
+        None => None,
+        Some(p) => {
+            let inside = |key: &str, v: [f32; 3]| -> Result<[f32; 3], KitError> {
+                for (i, x) in v.iter().enumerate() {
+                    c.range(&format!("{key}[{i}]"), *x, -3.0, 3.0)?;
+                }
+                Ok(v)
+            };
+            Some(Pedals {
+                kick_axle_m: inside("pedals.kick_axle_m", p.kick_axle_m)?,
+                beater_length_m: c.range("pedals.beater_length_m", p.beater_length_m, 0.05, 0.5)?,
+                beater_rest_deg: c.range("pedals.beater_rest_deg", p.beater_rest_deg, 5.0, 80.0)?,
+                hihat_pedal_m: inside("pedals.hihat_pedal_m", p.hihat_pedal_m)?,
+                hihat_travel_m: c.range("pedals.hihat_travel_m", p.hihat_travel_m, 0.002, 0.05)?,
+            })
+        }
+    };
+    Ok(Kit { name: raw.name, pieces, zones, strike, pedals })
 }
 
 #[cfg(test)]

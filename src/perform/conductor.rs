@@ -2,14 +2,17 @@
 //! at 10 kHz) at a time, Algorithm 2's loop. The offline render and the live mode call the
 //! same [`Conductor::period`]; only the clock that calls it differs.
 
+use super::feet::PedalTargets;
 use super::targets::{TargetSettings, TipTargets};
 use crate::body::contacts::Strike;
 use crate::body::ik::ArmTarget;
 use crate::body::model::DT_S;
+use crate::body::pedals::{PedalBodies, BEATER};
 use crate::body::sim::{Drummer, DrummerError, DrummerSettings, Mode};
 use crate::body::strokes::TASK_HZ;
 use crate::kit::{Kit, PieceKind};
-use crate::motion::plan::PlannedHands;
+use crate::midi::{NoteMap, Performance};
+use crate::motion::pipeline::Planned;
 use rapier3d::math::Vector;
 
 /// Physics steps per task period (10 kHz / 250 Hz).
@@ -34,15 +37,30 @@ pub struct Conductor {
     from: [ArmTarget; 2],
     /// Per hand, the last stroke the stick was felt to land: (the note's onset, contact time).
     touched: [Option<(f64, f64)>; 2],
+    /// The kick beater and the hi-hat, with their targets, when the kit has pedals.
+    pedals: Option<(PedalBodies, PedalTargets)>,
+    /// The last kick the beater was felt to land: (the note's onset, contact time).
+    kick_touched: Option<(f64, f64)>,
     /// Performance time of the next period's start, seconds (negative in the preroll).
     t: f64,
 }
 
 impl Conductor {
-    pub fn new(kit: &Kit, planned: &PlannedHands, settings: DrummerSettings) -> Result<Conductor, DrummerError> {
+    /// The body for `perf` as the motion stage `planned` it, on `kit`.
+    pub fn new(
+        kit: &Kit,
+        perf: &Performance,
+        map: &NoteMap,
+        planned: &Planned,
+        settings: DrummerSettings,
+    ) -> Result<Conductor, DrummerError> {
         let drummer = Drummer::new(kit, settings)?;
         let bead = drummer.skel.stick.radius_m;
-        let targets = TipTargets::new(planned, bead, TargetSettings::default());
+        let targets = TipTargets::new(&planned.hands, bead, TargetSettings::default());
+        let pedals = PedalBodies::new(kit).map(|b| {
+            let t = PedalTargets::new(perf, map, kit, &b, &planned.motion);
+            (b, t)
+        });
         let plates = drummer
             .surfaces()
             .iter()
@@ -58,7 +76,7 @@ impl Conductor {
             .collect();
         let t = -PREROLL_S;
         let from = [targets.at(0, t, None), targets.at(1, t, None)];
-        Ok(Conductor { drummer, targets, plates, piece_of, from, touched: [None; 2], t })
+        Ok(Conductor { drummer, targets, plates, piece_of, from, touched: [None; 2], pedals, kick_touched: None, t })
     }
 
     /// Performance time of the next period, seconds.
@@ -68,6 +86,11 @@ impl Conductor {
 
     pub fn drummer(&self) -> &Drummer {
         &self.drummer
+    }
+
+    /// The pedal bodies, when the kit has pedals.
+    pub fn pedals(&self) -> Option<&PedalBodies> {
+        self.pedals.as_ref().map(|(b, _)| b)
     }
 
     /// The targets the last period ended on.
@@ -109,6 +132,19 @@ impl Conductor {
                 }
                 sink(s)
             });
+            if let Some((bodies, targets)) = &mut self.pedals {
+                let t = self.t + (k + 1) as f64 * DT_S as f64;
+                let kick_touched = &mut self.kick_touched;
+                let (beater, hihat) = (targets.beater(t, *kick_touched), targets.hihat(t));
+                bodies.step(beater, hihat, t, &mut |s: Strike| {
+                    if s.side == BEATER {
+                        if let Some(onset) = targets.kick_near(s.time_s, TOUCH_WINDOW_S) {
+                            *kick_touched = Some((onset, s.time_s));
+                        }
+                    }
+                    sink(s)
+                });
+            }
             for h in 0..2 {
                 if self.touched[h] != before[h] && k + 1 < STEPS_PER_PERIOD {
                     // Mid-period: the rest of the period heads for the rebound at once.

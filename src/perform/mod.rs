@@ -5,11 +5,14 @@
 //!   radius, a press into the surface at the onset, a keep-out under cymbals).
 //! - `conductor.rs`: one task period of Algorithm 2 (40 physics steps toward interpolated
 //!   targets); the step function offline and live share.
+//! - `feet.rs`: the pedals' targets (the kick beater's swing to each kick note, the hi-hat
+//!   following the left foot); the pedal bodies themselves are in `body/pedals.rs`.
 //! - `offline.rs`: a whole song, its contacts as contact messages, the simulated tips.
 //! - `matching.rs`: which note each contact played (bookkeeping for files and reports; the
 //!   sound never reads it).
 
 pub mod conductor;
+pub mod feet;
 pub mod matching;
 pub mod offline;
 pub mod targets;

@@ -8,7 +8,11 @@ use crate::body::sim::{DrummerError, DrummerSettings, Mode};
 use crate::body::strokes::TASK_HZ;
 use crate::interaction::ContactMessage;
 use crate::kit::Kit;
-use crate::motion::plan::PlannedHands;
+use crate::midi::{NoteMap, Performance};
+use crate::motion::pipeline::Planned;
+
+/// Contacts this early before time 0 still belong to the song (at time 0), seconds.
+const EARLY_S: f64 = 0.010;
 
 /// What the body did over a song.
 #[derive(Debug, Clone)]
@@ -19,6 +23,8 @@ pub struct PhysicalTake {
     pub messages: Vec<ContactMessage>,
     /// The simulated stick tips (left, right) at 60 fps from time 0.
     pub tips: Vec<[[f32; 3]; 2]>,
+    /// The simulated hi-hat's openness at 60 fps from time 0 (empty without pedals).
+    pub hihat_openness: Vec<f32>,
     /// Deepest a stick sank into a piece, metres.
     pub max_penetration_m: f32,
     /// Largest mechanical energy of the moving links, J.
@@ -29,16 +35,26 @@ pub struct PhysicalTake {
     pub steps: u64,
 }
 
-/// Play `planned` on `kit` from the preroll until `end_s` (performance seconds).
-pub fn play(kit: &Kit, planned: &PlannedHands, end_s: f64) -> Result<PhysicalTake, DrummerError> {
-    let mut c = Conductor::new(kit, planned, DrummerSettings::default())?;
+/// Play `perf` as the motion stage `planned` it on `kit`, from the preroll until `end_s`
+/// (performance seconds).
+pub fn play(
+    kit: &Kit,
+    perf: &Performance,
+    map: &NoteMap,
+    planned: &Planned,
+    end_s: f64,
+) -> Result<PhysicalTake, DrummerError> {
+    let mut c = Conductor::new(kit, perf, map, planned, DrummerSettings::default())?;
+    let mut hihat_openness = Vec::new();
     let periods = ((end_s + PREROLL_S) * TASK_HZ).ceil().max(0.0) as usize;
     let mut strikes = Vec::new();
     let mut tips = Vec::with_capacity((end_s.max(0.0) * 60.0) as usize + 2);
     let (mut max_energy_j, mut finite) = (0.0f32, true);
     for _ in 0..periods {
-        c.period(&mut |s| {
-            if s.time_s >= 0.0 {
+        c.period(&mut |mut s| {
+            // A first note at time 0 may be struck a hair early: it is still the song's.
+            if s.time_s >= -EARLY_S {
+                s.time_s = s.time_s.max(0.0);
                 strikes.push(s)
             }
         });
@@ -48,6 +64,9 @@ pub fn play(kit: &Kit, planned: &PlannedHands, end_s: f64) -> Result<PhysicalTak
             let tip = c.drummer().tips(Mode::Himc);
             finite &= tip.iter().all(|v| v.is_finite());
             tips.push(tip.map(|v| [v.x, v.y, v.z]));
+            if let Some(p) = c.pedals() {
+                hihat_openness.push(p.hihat_openness());
+            }
         }
         max_energy_j = max_energy_j.max(c.drummer().energy_j());
     }
@@ -57,6 +76,7 @@ pub fn play(kit: &Kit, planned: &PlannedHands, end_s: f64) -> Result<PhysicalTak
         strikes,
         messages,
         tips,
+        hihat_openness,
         max_penetration_m: c.drummer().max_penetration_m(),
         max_energy_j,
         finite,

@@ -1,0 +1,166 @@
+//! The pedals' targets: what the feet ask of the kick beater and the hi-hat.
+//!
+//! - Kick: for each kick note the beater swings from its rest angle with constant angular
+//!   acceleration so that it reaches the head exactly at the onset at the speed the kit's
+//!   speed map gives the note's velocity; it then presses on (at most 0.08 rad) until it is
+//!   felt to touch, and returns to rest (time constant 30 ms). Notes closer than a full swing
+//!   start from where the beater is: the swing is shortened to 70 % of the gap.
+//! - Hi-hat: the top cymbal follows the left foot of the motion stage (its lift, 0 closed .. 1
+//!   open: the openness from CC4 or the notes, and the press of each pedal note, which closes
+//!   the hi-hat at the onset), interpolated between 60 fps frames. A hi-hat pedal note closes
+//!   it at the onset whatever the pedal data says (an e-kit sends the note when its pedal
+//!   passes its own closing threshold, which CC4 alone does not show), at 0.4 of the stroke
+//!   speed of its velocity, and holds it shut 60 ms.
+
+use crate::body::pedals::{PedalBodies, PedalTarget, HIHAT_PRESS_M, MIN_CLOSING_NOTE_FREE_MPS};
+use crate::kit::Kit;
+use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
+use crate::motion::feet::{FEET_HOME, PRESS_LIFT_M};
+use crate::motion::Motion;
+
+/// Longest the beater presses on after the onset without touching, seconds.
+const PRESS_S: f64 = 0.030;
+/// Furthest the beater's target goes past the head, radians.
+const PRESS_RAD: f32 = 0.08;
+/// A hi-hat pedal note closes the hi-hat at this share of the kit's stroke speed for its
+/// velocity (a foot is slower than a stick, as in direct mode), and holds it shut this long.
+const CHICK_SPEED_SCALE: f32 = 0.4;
+const CHICK_HOLD_S: f64 = 0.060;
+/// The beater's return to rest, time constant, seconds.
+const RETURN_S: f32 = 0.030;
+
+/// The feet's targets over a song.
+pub struct PedalTargets {
+    /// Kick notes: onset, angular speed at the head (rad/s).
+    kicks: Vec<(f64, f32)>,
+    rest: f32,
+    contact: f32,
+    /// The left foot's lift per 60 fps frame.
+    lift: Vec<f32>,
+    /// Hi-hat pedal notes: onset, closing rate (openness per second).
+    chicks: Vec<(f64, f32)>,
+    /// The hi-hat's travel, m.
+    travel: f32,
+    fps: f64,
+}
+
+impl PedalTargets {
+    pub fn new(perf: &Performance, map: &NoteMap, kit: &Kit, bodies: &PedalBodies, motion: &Motion) -> PedalTargets {
+        let (rest, contact) = (bodies.beater_rest_rad(), bodies.beater_contact_rad());
+        let arm = bodies.pedals().beater_length_m * contact.cos();
+        let mut kicks: Vec<(f64, f32)> = perf
+            .events
+            .iter()
+            .filter_map(|e| match e.kind {
+                DrumEventKind::NoteOn { note, velocity } => map
+                    .entry(note)
+                    .filter(|m| m.zone == Zone::Pedal && m.piece == "kick")
+                    .map(|_| (e.time_s, kit.strike.speed_for_velocity(velocity) / arm.max(0.01))),
+                _ => None,
+            })
+            .collect();
+        kicks.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // E-kit double triggers: kicks closer than 12 ms are one stroke.
+        kicks.dedup_by(|b, a| b.0 - a.0 < 0.012);
+        let travel = bodies.pedals().hihat_travel_m;
+        let mut chicks: Vec<(f64, f32)> = perf
+            .events
+            .iter()
+            .filter_map(|e| match e.kind {
+                DrumEventKind::NoteOn { note, velocity } => map
+                    .entry(note)
+                    .filter(|m| m.zone == Zone::Pedal && m.piece == "hihat")
+                    .map(|_| (e.time_s, CHICK_SPEED_SCALE * kit.strike.speed_for_velocity(velocity) / travel)),
+                _ => None,
+            })
+            .collect();
+        chicks.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut lift: Vec<f32> = motion
+            .frames
+            .iter()
+            .map(|f| ((f.feet[0].pos[2] - FEET_HOME[0][2]) / PRESS_LIFT_M).clamp(0.0, 1.0))
+            .collect();
+        // Where no pedal note asks for a chick, the foot lets the top cymbal settle onto the
+        // bottom one: the last part of a closing, from just above the touch, goes no faster
+        // than a contact that makes no sound.
+        let touch = HIHAT_PRESS_M / travel;
+        let (soft, step) = (touch + 0.1, MIN_CLOSING_NOTE_FREE_MPS / travel / motion.fps as f32);
+        for f in 1..lift.len() {
+            if lift[f] < lift[f - 1] && lift[f] < soft {
+                lift[f] = lift[f].max(lift[f - 1].min(soft) - step);
+            }
+        }
+        PedalTargets { kicks, rest, contact, lift, chicks, travel, fps: motion.fps }
+    }
+
+    /// The onset of the kick note the beater is playing at `t` (the next one, or the last
+    /// within its press), for the conductor's touch bookkeeping.
+    pub fn kick_near(&self, t: f64, window_s: f64) -> Option<f64> {
+        let i = self.kicks.partition_point(|k| k.0 < t - window_s);
+        self.kicks.get(i).map(|k| k.0).filter(|&on| (on - t).abs() <= window_s)
+    }
+
+    /// The beater's target at `t`; `touched`: (a kick's onset, when the beater met the head).
+    pub fn beater(&self, t: f64, touched: Option<(f64, f64)>) -> PedalTarget {
+        let rest = PedalTarget { pos: self.rest, vel: 0.0, acc: 0.0 };
+        let i = self.kicks.partition_point(|k| k.0 <= t);
+        // The swing toward the next kick, if it has begun.
+        if let Some(&(onset, w)) = self.kicks.get(i) {
+            let full = 2.0 * (self.contact - self.rest) / w.max(0.1);
+            let gap = if i > 0 { (onset - self.kicks[i - 1].0) as f32 } else { f32::INFINITY };
+            let span = full.min(0.7 * gap);
+            let dt = (onset - t) as f32;
+            if dt <= span {
+                let a = w / span;
+                return PedalTarget { pos: self.contact - w * dt + 0.5 * a * dt * dt, vel: w - a * dt, acc: a };
+            }
+        }
+        // Pressing on after the last kick, then back to rest.
+        let Some(&(onset, w)) = i.checked_sub(1).and_then(|j| self.kicks.get(j)) else { return rest };
+        let since = t - onset;
+        let tc = match touched {
+            Some((on, tc)) if on == onset => tc,
+            _ if since < PRESS_S => {
+                let pos = (self.contact + w * since as f32).min(self.contact + PRESS_RAD);
+                return PedalTarget { pos, vel: if pos < self.contact + PRESS_RAD { w } else { 0.0 }, acc: 0.0 };
+            }
+            _ => onset + PRESS_S,
+        };
+        let u = ((t - tc).max(0.0) as f32 / RETURN_S).min(30.0);
+        let e = (-u).exp();
+        let d = self.contact - self.rest;
+        PedalTarget { pos: self.rest + d * e, vel: -d * e / RETURN_S, acc: d * e / (RETURN_S * RETURN_S) }
+    }
+
+    /// The hi-hat's openness target at `t` (0 closed .. 1 open), with its rate.
+    pub fn hihat(&self, t: f64) -> PedalTarget {
+        if self.lift.is_empty() {
+            return PedalTarget::default();
+        }
+        let x = (t * self.fps).clamp(0.0, (self.lift.len() - 1) as f64);
+        let k = x.floor() as usize;
+        let k1 = (k + 1).min(self.lift.len() - 1);
+        let a = (x - k as f64) as f32;
+        let (p, q) = (self.lift[k], self.lift[k1]);
+        let foot = PedalTarget { pos: p + (q - p) * a, vel: (q - p) * self.fps as f32, acc: 0.0 };
+        // A pedal note shuts the hi-hat at its onset, whatever the pedal data said, and holds it.
+        let i = self.chicks.partition_point(|c| c.0 + CHICK_HOLD_S < t);
+        // The top cymbal touches the bottom one where the target is the clutch's press above
+        // closed: there at the onset, then pressed shut.
+        let touch = HIHAT_PRESS_M / self.travel;
+        match self.chicks.get(i) {
+            Some(&(onset, rate)) if t >= onset => {
+                PedalTarget { pos: (touch - (t - onset) as f32 * rate).max(0.0), vel: 0.0, acc: 0.0 }
+            }
+            Some(&(onset, rate)) => {
+                let pos = touch + (onset - t) as f32 * rate;
+                if pos < foot.pos {
+                    PedalTarget { pos, vel: -rate, acc: 0.0 }
+                } else {
+                    foot
+                }
+            }
+            None => foot,
+        }
+    }
+}
