@@ -92,6 +92,10 @@ pub struct ContactRecord {
     #[serde(flatten)]
     pub contact: crate::interaction::ContactMessage,
     pub note: Option<NoteRef>,
+    /// Physical mode: where that note's stroke aimed, in the piece's coordinates (metres
+    /// from its centre, like `x_m`, `y_m`), for the impact point deviation.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub aim_m: Option<[f32; 2]>,
 }
 
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -305,7 +309,7 @@ impl<'a> Carrier<'a> {
         for msg in decode(packet)? {
             self.events.push(SoundEvent::from_message(&msg, self.kit, SAMPLE_RATE_HZ as f32)?);
             match msg {
-                Message::Contact(contact) => self.contacts.contacts.push(ContactRecord { contact, note }),
+                Message::Contact(contact) => self.contacts.contacts.push(ContactRecord { contact, note, aim_m: None }),
                 Message::HiHat { time_s, openness } => self.contacts.hihat.push(HiHatRecord { time_s, openness }),
                 Message::Choke { piece, time_s } => self.contacts.chokes.push(ChokeRecord { piece, time_s }),
             }
@@ -384,6 +388,19 @@ pub fn score_physical(
     for (m, of) in take.messages.iter().zip(&of_contact) {
         let note = of.map(|i| NoteRef { note: all[i].note, velocity: all[i].velocity, time_s: all[i].time_s });
         carrier.carry(&Message::Contact(m.clone()), note)?;
+        // The aim: the note's strike point on its piece (or the hoop's drum), in that
+        // surface's coordinates; only for contacts on the note's own piece.
+        let aim = of.and_then(|i| {
+            let piece = kit.piece(&all[i].piece).filter(|p| p.id == m.piece)?;
+            let (point, _) = crate::motion::corpus::strike_point(kit, piece, all[i].zone);
+            let n = rapier3d::math::Vector::from(piece.normal).normalize();
+            let (u, v) = crate::body::model::surface_basis(n);
+            let d = rapier3d::math::Vector::from(point) - rapier3d::math::Vector::from(piece.position_m);
+            Some([d.dot(u), d.dot(v)])
+        });
+        if let Some(last) = carrier.contacts.contacts.last_mut() {
+            last.aim_m = aim;
+        }
     }
     let summary = PhysicalSummary {
         notes: all.len(),

@@ -97,6 +97,39 @@ pub fn jerk_rms_per_frame(traj: &[[f32; 3]]) -> Result<f64, MotionMetricError> {
 }
 
 /// Mean, population standard deviation (numpy's default) and median; None when empty.
+/// Ranks (1-based, ties averaged).
+fn ranks(x: &[f64]) -> Vec<f64> {
+    let mut idx: Vec<usize> = (0..x.len()).collect();
+    idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
+    let mut r = vec![0.0; x.len()];
+    let mut i = 0;
+    while i < idx.len() {
+        let mut j = i;
+        while j + 1 < idx.len() && x[idx[j + 1]] == x[idx[i]] {
+            j += 1;
+        }
+        for &k in &idx[i..=j] {
+            r[k] = 0.5 * (i + j) as f64 + 1.0;
+        }
+        i = j + 1;
+    }
+    r
+}
+
+/// Spearman's rank correlation; `None` with fewer than 3 pairs or a constant side.
+pub fn spearman(a: &[f64], b: &[f64]) -> Option<f64> {
+    if a.len() != b.len() || a.len() < 3 {
+        return None;
+    }
+    let (ra, rb) = (ranks(a), ranks(b));
+    let n = a.len() as f64;
+    let (ma, mb) = (ra.iter().sum::<f64>() / n, rb.iter().sum::<f64>() / n);
+    let cov: f64 = ra.iter().zip(&rb).map(|(x, y)| (x - ma) * (y - mb)).sum();
+    let va: f64 = ra.iter().map(|x| (x - ma).powi(2)).sum();
+    let vb: f64 = rb.iter().map(|y| (y - mb).powi(2)).sum();
+    (va > 0.0 && vb > 0.0).then(|| cov / (va * vb).sqrt())
+}
+
 pub fn mean_sd_median(x: &[f64]) -> Option<(f64, f64, f64)> {
     if x.is_empty() {
         return None;
@@ -121,6 +154,9 @@ pub struct MotionMetrics {
     pub timing_ms: Option<TimingMs>,
     pub beat_alignment_ms: Option<BeatAlignmentMs>,
     pub ipd_mm: Option<IpdMm>,
+    /// Spearman correlation of note velocity with contact speed (each played note's first
+    /// contact).
+    pub velocity_speed_spearman: Option<f64>,
     pub hands: Option<HandMetrics>,
 }
 

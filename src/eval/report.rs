@@ -8,10 +8,14 @@
 //! - Beat alignment (DRUMS): from the hand bones' positions in DIR/SONG.motion.json.
 //! - Hands (only with a reference): L1, DTW and jerk of the hand bones against the
 //!   reference's (another SONG.motion.json, e.g. mocap exported through the same rig).
-//! - IPD is null until contacts carry their intended point (physical sound).
+//! - IPD: for contacts that carry their stroke's aim (physical renders), the distance from
+//!   the aimed strike point to the contact point, mm: mean and p95.
+//! - Velocity fidelity: Spearman correlation of each played note's velocity with its first
+//!   contact's speed.
 
 use super::motion::{
-    hand_onsets_s, mean_sd_median, motion_metrics, HitRates, MotionMetricError, MotionMetrics, TimingMs,
+    hand_onsets_s, mean_sd_median, motion_metrics, spearman, HitRates, IpdMm, MotionMetricError, MotionMetrics,
+    TimingMs,
 };
 use crate::midi::{read_file, DrumEventKind, NoteMap, ReadOptions};
 use crate::motion::rig::HAND;
@@ -45,6 +49,23 @@ struct ContactsFile {
 struct Contact {
     piece: String,
     time_s: f64,
+    #[serde(default)]
+    speed_mps: f64,
+    #[serde(default)]
+    x_m: f64,
+    #[serde(default)]
+    y_m: f64,
+    #[serde(default)]
+    note: Option<ContactNote>,
+    #[serde(default)]
+    aim_m: Option<[f64; 2]>,
+}
+
+#[derive(Deserialize)]
+struct ContactNote {
+    velocity: u8,
+    time_s: f64,
+    note: u8,
 }
 
 #[derive(Deserialize)]
@@ -138,6 +159,27 @@ pub fn run_eval(song: &Path, dir: &Path, reference: Option<&Path>, map: &NoteMap
             recall: if notes.is_empty() { 1.0 } else { hit as f64 / notes.len() as f64 },
             precision: if contacts.contacts.is_empty() { 1.0 } else { real as f64 / contacts.contacts.len() as f64 },
         });
+        // IPD: each contact that carries its stroke's aim (physical renders).
+        let mut ipd: Vec<f64> = contacts
+            .contacts
+            .iter()
+            .filter_map(|c| c.aim_m.map(|a| 1e3 * (c.x_m - a[0]).hypot(c.y_m - a[1])))
+            .collect();
+        if !ipd.is_empty() {
+            ipd.sort_by(f64::total_cmp);
+            let p95 = ipd[((0.95 * ipd.len() as f64).ceil() as usize).clamp(1, ipd.len()) - 1];
+            out.ipd_mm = Some(IpdMm { mean: ipd.iter().sum::<f64>() / ipd.len() as f64, p95 });
+        }
+        // Velocity fidelity: each note's first contact (the file's own note matches).
+        let mut seen = std::collections::HashSet::new();
+        let (vel, speed): (Vec<f64>, Vec<f64>) = contacts
+            .contacts
+            .iter()
+            .filter_map(|c| c.note.as_ref().map(|n| (n, c.speed_mps)))
+            .filter(|(n, _)| seen.insert((n.time_s.to_bits(), n.note)))
+            .map(|(n, s)| (n.velocity as f64, s))
+            .unzip();
+        out.velocity_speed_spearman = spearman(&vel, &speed);
         out.timing_ms = mean_sd_median(&errors).map(|(mean, sd, median)| {
             let mut abs: Vec<f64> = errors.iter().map(|e| e.abs()).collect();
             abs.sort_by(f64::total_cmp);
