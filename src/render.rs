@@ -388,9 +388,10 @@ pub fn score_physical(
     for (m, of) in take.messages.iter().zip(&of_contact) {
         let note = of.map(|i| NoteRef { note: all[i].note, velocity: all[i].velocity, time_s: all[i].time_s });
         carrier.carry(&Message::Contact(m.clone()), note)?;
-        // The aim: the note's strike point on its piece (or the hoop's drum), in that
-        // surface's coordinates; only for contacts on the note's own piece.
-        let aim = of.and_then(|i| {
+        // The aim: the note's strike point on its piece, in that surface's coordinates; only
+        // for sticks on the note's own piece (a pedal's point is its geometry, not a plan).
+        let stick = matches!(m.limb, crate::interaction::Limb::LeftHand | crate::interaction::Limb::RightHand);
+        let aim = of.filter(|_| stick).and_then(|i| {
             let piece = kit.piece(&all[i].piece).filter(|p| p.id == m.piece)?;
             let (point, _) = crate::motion::corpus::strike_point(kit, piece, all[i].zone);
             let n = rapier3d::math::Vector::from(piece.normal).normalize();
