@@ -365,13 +365,20 @@ pub fn score_physical(
     perf: &Performance,
     kit: &Kit,
     map: &NoteMap,
-    staged: &Staged,
+    staged: &mut Staged,
 ) -> anyhow::Result<(Score, PhysicalSummary)> {
     use crate::perform::matching::{match_contacts, onsets};
     let started = Instant::now();
     let take = crate::perform::play(kit, perf, map, &staged.planned, perf.notes_end_s + 0.5)?;
     if !take.finite {
         anyhow::bail!("{}: the simulated body left the finite numbers", perf.path.display());
+    }
+    // The motion files show the simulated hands and sticks (and the simulated hi-hat).
+    for (f, frame) in staged.planned.motion.frames.iter_mut().enumerate() {
+        if let (Some(h), o) = (take.hands.get(f), take.hihat_openness.get(f)) {
+            frame.hands = *h;
+            frame.hihat_openness = o.copied().unwrap_or(frame.hihat_openness);
+        }
     }
     let all = onsets(perf, map);
     let (of_contact, played) = match_contacts(&all, &take.messages);
@@ -480,8 +487,8 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
         SoundMode::Physical => {
             let perf = read_song(song, &map, opts)?;
             let hands = load_hands(opts)?;
-            let staged = stage_motion(&perf, &kit, &map, &hands)?;
-            let (score, summary) = score_physical(&perf, &kit, &map, &staged)?;
+            let mut staged = stage_motion(&perf, &kit, &map, &hands)?;
+            let (score, summary) = score_physical(&perf, &kit, &map, &mut staged)?;
             (score, None, Some(staged).filter(|_| opts.motion), Some(summary))
         }
     };

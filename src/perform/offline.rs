@@ -5,11 +5,14 @@
 use super::conductor::{Conductor, PREROLL_S};
 use crate::body::contacts::Strike;
 use crate::body::sim::{DrummerError, DrummerSettings, Mode};
+use crate::body::skeleton::HAND;
 use crate::body::strokes::TASK_HZ;
 use crate::interaction::ContactMessage;
 use crate::kit::Kit;
 use crate::midi::{NoteMap, Performance};
 use crate::motion::pipeline::Planned;
+use crate::motion::Pose;
+use rapier3d::math::{Rotation, Vector};
 
 /// Contacts this early before time 0 still belong to the song (at time 0), seconds.
 const EARLY_S: f64 = 0.010;
@@ -23,6 +26,10 @@ pub struct PhysicalTake {
     pub messages: Vec<ContactMessage>,
     /// The simulated stick tips (left, right) at 60 fps from time 0.
     pub tips: Vec<[[f32; 3]; 2]>,
+    /// The simulated hands as the motion's grip poses (stick along local +y, its tip
+    /// [`crate::motion::track::STICK_TIP_LOCAL`] away when the sticks are the same length)
+    /// at 60 fps from time 0.
+    pub hands: Vec<[Pose; 2]>,
     /// The simulated hi-hat's openness at 60 fps from time 0 (empty without pedals).
     pub hihat_openness: Vec<f32>,
     /// Deepest a stick sank into a piece, metres.
@@ -46,6 +53,7 @@ pub fn play(
 ) -> Result<PhysicalTake, DrummerError> {
     let mut c = Conductor::new(kit, perf, map, planned, DrummerSettings::default())?;
     let mut hihat_openness = Vec::new();
+    let mut hands = Vec::with_capacity((end_s.max(0.0) * 60.0) as usize + 2);
     let periods = ((end_s + PREROLL_S) * TASK_HZ).ceil().max(0.0) as usize;
     let mut strikes = Vec::new();
     let mut tips = Vec::with_capacity((end_s.max(0.0) * 60.0) as usize + 2);
@@ -64,6 +72,15 @@ pub fn play(
             let tip = c.drummer().tips(Mode::Himc);
             finite &= tip.iter().all(|v| v.is_finite());
             tips.push(tip.map(|v| [v.x, v.y, v.z]));
+            let d = c.drummer();
+            let pose = d.sim_pose();
+            let along = Rotation::from_rotation_arc(Vector::Y, d.skel.stick.dir);
+            hands.push([0, 1].map(|side| {
+                let (p, q) = (pose.pos[HAND[side]], pose.rot[HAND[side]]);
+                let grip = p + q * d.skel.stick.grip;
+                let r = (q * along).normalize();
+                Pose { pos: [grip.x, grip.y, grip.z], rot: [r.w, r.x, r.y, r.z] }
+            }));
             if let Some(p) = c.pedals() {
                 hihat_openness.push(p.hihat_openness());
             }
@@ -76,6 +93,7 @@ pub fn play(
         strikes,
         messages,
         tips,
+        hands,
         hihat_openness,
         max_penetration_m: c.drummer().max_penetration_m(),
         max_energy_j,
