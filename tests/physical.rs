@@ -122,3 +122,29 @@ fn a_groove_midi_funk_take_is_played_by_the_body_and_its_pedals() {
     // Tips at 60 fps for the whole song.
     assert!((take.tips.len() as f64 - (perf.notes_end_s + 0.5) * 60.0).abs() <= 2.0);
 }
+
+#[test]
+fn a_kit_without_pedals_plays_the_hands_and_says_so_and_live_physical_is_refused() {
+    let dir = fresh_dir("nopedals");
+    let kit = drumsim::kit::DEFAULT_KIT_TOML;
+    let no_pedals = dir.join("no-pedals.toml");
+    std::fs::write(&no_pedals, &kit[..kit.find("\n[pedals]").unwrap()]).unwrap();
+    let song = root().join("assets/demo/demo.mid");
+    let out = dir.join("out");
+    let r = Command::new(env!("CARGO_BIN_EXE_drumsim"))
+        .args(["render", song.to_str().unwrap(), "--out", out.to_str().unwrap(), "--sound", "physical"])
+        .args(["--kit", no_pedals.to_str().unwrap(), "--no-motion"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&r.stderr).into_owned();
+    assert!(r.status.success(), "{stderr}");
+    assert!(stderr.contains("the kit has no [pedals]: kick and hi-hat pedal notes are not played"), "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("demo.contacts.json")).unwrap()).unwrap();
+    let contacts = json["contacts"].as_array().unwrap();
+    assert!(!contacts.is_empty() && contacts.iter().all(|c| c["limb"].as_i64().unwrap() <= 1));
+    // The live physical drummer is not built yet: refused before any device is opened.
+    let r = Command::new(env!("CARGO_BIN_EXE_drumsim")).args(["live", "--sound", "physical"]).output().unwrap();
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("live --sound physical is not built yet"));
+}

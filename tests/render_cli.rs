@@ -279,7 +279,6 @@ fn bad_maps_kits_and_options_are_refused_with_exit_code_2() {
     assert_bad_input(&render_cli(&song, &out, &["--map", bad_map.to_str().unwrap()]), "map.toml", &out);
     assert_bad_input(&render_cli(&song, &out, &["--map", "no-such-map"]), "no-such-map", &out);
     assert_bad_input(&render_cli(&song, &out, &["--map", "roland-td", "--channel", "17"]), "17", &out);
-    assert_bad_input(&render_cli(&song, &out, &["--map", "roland-td", "--sound", "physical"]), "physical", &out);
     // Unknown notes can be skipped on request.
     let skipped = render_cli(&song, &out, &["--map", "gm", "--skip-unknown"]);
     assert!(skipped.status.success(), "{}", String::from_utf8_lossy(&skipped.stderr));
