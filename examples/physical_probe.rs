@@ -48,7 +48,8 @@ fn main() {
         }
         let mean = errs.iter().sum::<f64>() / errs.len().max(1) as f64;
         let sd = (errs.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / errs.len().max(1) as f64).sqrt();
-        println!(
+        if std::env::var_os("JSON").is_none() {
+            println!(
             "{take}: {:.1} s in {wall:.1} s ({:.1}x real time); notes {} hit {:.2} % (kick {}/{}, hi-hat pedal {}/{}), contacts {} spurious {} ({:.2} %); timing {mean:+.2} / sd {sd:.2} ms; sank {:.1} mm, energy {:.0} J, finite {}",
             perf.notes_end_s,
             perf.notes_end_s / wall,
@@ -65,6 +66,34 @@ fn main() {
             take_.max_energy_j,
             take_.finite
         );
+        }
+        if std::env::var_os("JSON").is_some() {
+            // One line per take with everything a split-wide figure needs.
+            let mut vel_speed = Vec::new();
+            let mut ipd_mm = Vec::new();
+            for (i, k) in first.iter().enumerate() {
+                let Some(k) = *k else { continue };
+                let m = &take_.messages[k];
+                vel_speed.push((hand[i].velocity, m.speed_mps));
+                let stick =
+                    matches!(m.limb, drumsim::interaction::Limb::LeftHand | drumsim::interaction::Limb::RightHand);
+                if let (true, Some(piece)) = (stick, kit.piece(&hand[i].piece).filter(|p| p.id == m.piece)) {
+                    let (point, _) = drumsim::motion::corpus::strike_point(&kit, piece, hand[i].zone);
+                    let n = rapier3d::math::Vector::from(piece.normal).normalize();
+                    let (u, v) = drumsim::body::model::surface_basis(n);
+                    let d = rapier3d::math::Vector::from(point) - rapier3d::math::Vector::from(piece.position_m);
+                    ipd_mm.push(1e3 * (m.x_m - d.dot(u)).hypot(m.y_m - d.dot(v)));
+                }
+            }
+            let line = serde_json::json!({
+                "take": take, "seconds": perf.notes_end_s, "wall_s": wall, "notes": hand.len(), "hit": hit,
+                "contacts": of.len(), "spurious": spurious.len(), "timing_ms": errs,
+                "vel_speed": vel_speed, "ipd_mm": ipd_mm, "sank_mm": take_.max_penetration_m * 1e3,
+                "energy_j": take_.max_energy_j, "finite": take_.finite,
+            });
+            println!("{line}");
+            continue;
+        }
         if std::env::var_os("VERBOSE").is_some() {
             for &k in spurious.iter().take(15) {
                 let m = &take_.messages[k];
