@@ -28,7 +28,18 @@ fn main() {
     let k = c.drummer().surfaces().iter().position(|s| &s.id == piece).expect("piece");
     while c.time_s() < at + 0.15 {
         let mut hits = Vec::new();
-        c.period(&mut |s| hits.push(s));
+        let fine = std::env::var_os("STEPS").is_some();
+        c.period_observed(&mut |s| hits.push(s), &mut |d, t, tg| {
+            if fine && (t - at).abs() < 0.004 {
+                let s = &d.surfaces()[k];
+                let tip = d.tips(Mode::Himc)[hand];
+                println!(
+                    "    step {t:.4} target h {:+6.2} mm sim h {:+6.2} mm",
+                    s.height(tg[hand].tip) * 1e3,
+                    s.height(tip) * 1e3
+                );
+            }
+        });
         let t = c.time_s();
         if t > at - 0.15 {
             let s = &c.drummer().surfaces()[k];

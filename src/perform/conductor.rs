@@ -102,6 +102,16 @@ impl Conductor {
     /// interpolated from the previous period's. New strikes go to `sink` with their time in
     /// performance seconds.
     pub fn period(&mut self, sink: &mut impl FnMut(Strike)) {
+        self.period_observed(sink, &mut |_, _, _| {});
+    }
+
+    /// [`Self::period`], showing `observe` the body, the step's performance time and its
+    /// targets after every physics step (for traces and tests).
+    pub fn period_observed(
+        &mut self,
+        sink: &mut impl FnMut(Strike),
+        observe: &mut impl FnMut(&Drummer, f64, &[ArmTarget; 2]),
+    ) {
         let t1 = self.t + 1.0 / TASK_HZ;
         let sim = self.drummer.tips(Mode::Himc);
         let mut to = [self.targets.at(0, t1, self.touched[0]), self.targets.at(1, t1, self.touched[1])];
@@ -132,6 +142,7 @@ impl Conductor {
                 }
                 sink(s)
             });
+            observe(&self.drummer, self.t + (k + 1) as f64 * DT_S as f64, &tg);
             if let Some((bodies, targets)) = &mut self.pedals {
                 let t = self.t + (k + 1) as f64 * DT_S as f64;
                 let kick_touched = &mut self.kick_touched;

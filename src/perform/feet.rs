@@ -9,8 +9,9 @@
 //!   open: the openness from CC4 or the notes, and the press of each pedal note, which closes
 //!   the hi-hat at the onset), interpolated between 60 fps frames. A hi-hat pedal note closes
 //!   it at the onset whatever the pedal data says (an e-kit sends the note when its pedal
-//!   passes its own closing threshold, which CC4 alone does not show), at 0.4 of the stroke
-//!   speed of its velocity, and holds it shut 60 ms.
+//!   passes its own closing threshold, which CC4 alone does not show): the foot lifts it
+//!   open over 30 ms, shuts it at 0.4 of the stroke speed of its velocity, reaching it at the
+//!   onset, and holds it shut 60 ms.
 
 use crate::body::pedals::{PedalBodies, PedalTarget, HIHAT_PRESS_M, MIN_CLOSING_NOTE_FREE_MPS};
 use crate::kit::Kit;
@@ -26,6 +27,8 @@ const PRESS_RAD: f32 = 0.08;
 /// velocity (a foot is slower than a stick, as in direct mode), and holds it shut this long.
 const CHICK_SPEED_SCALE: f32 = 0.4;
 const CHICK_HOLD_S: f64 = 0.060;
+/// How long the foot takes to lift the hi-hat open before a chick, seconds.
+const CHICK_LIFT_S: f64 = 0.030;
 /// The beater's return to rest, time constant, seconds.
 const RETURN_S: f32 = 0.030;
 
@@ -153,11 +156,16 @@ impl PedalTargets {
                 PedalTarget { pos: (touch - (t - onset) as f32 * rate).max(0.0), vel: 0.0, acc: 0.0 }
             }
             Some(&(onset, rate)) => {
-                let pos = touch + (onset - t) as f32 * rate;
-                if pos < foot.pos {
-                    PedalTarget { pos, vel: -rate, acc: 0.0 }
-                } else {
+                // The foot lifts first (as far as the stroke needs, at most fully open) and
+                // then shuts the hi-hat at the note's speed, as a drummer's chick does.
+                let ramp_s = ((1.0 - touch) / rate.max(1e-3)) as f64;
+                let dt = onset - t;
+                if dt > ramp_s + CHICK_LIFT_S {
                     foot
+                } else if dt > ramp_s {
+                    PedalTarget { pos: foot.pos.max(1.0), vel: 0.0, acc: 0.0 }
+                } else {
+                    PedalTarget { pos: touch + dt as f32 * rate, vel: -rate, acc: 0.0 }
                 }
             }
             None => foot,
