@@ -89,12 +89,13 @@ fn main() {
                 "take": take, "seconds": perf.notes_end_s, "wall_s": wall, "notes": hand.len(), "hit": hit,
                 "contacts": of.len(), "spurious": spurious.len(), "timing_ms": errs,
                 "vel_speed": vel_speed, "ipd_mm": ipd_mm, "sank_mm": take_.max_penetration_m * 1e3,
-                "energy_j": take_.max_energy_j, "finite": take_.finite,
+                "energy_j": take_.max_energy_j, "finite": take_.finite, "deepest_at": take_.deepest_at,
             });
             println!("{line}");
             continue;
         }
         if std::env::var_os("VERBOSE").is_some() {
+            println!("  deepest: {:?}", take_.deepest_at);
             for &k in spurious.iter().take(15) {
                 let m = &take_.messages[k];
                 let near = hand

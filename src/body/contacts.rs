@@ -76,6 +76,8 @@ pub struct ContactTracker {
     recent_tip_vel: [[Vector; APPROACH_STEPS]; 2],
     ring: usize,
     pub max_penetration_m: f32,
+    /// Where the deepest penetration was: time, surface, stick.
+    pub deepest_at: (f64, usize, usize),
 }
 
 impl ContactTracker {
@@ -86,6 +88,7 @@ impl ContactTracker {
             recent_tip_vel: [[Vector::ZERO; APPROACH_STEPS]; 2],
             ring: 0,
             max_penetration_m: 0.0,
+            deepest_at: (0.0, 0, 0),
         }
     }
 
@@ -99,7 +102,10 @@ impl ContactTracker {
                 let other = if pair.collider1 == model.sticks[side] { pair.collider2 } else { pair.collider1 };
                 let Some(k) = model.surface_of(other) else { continue };
                 let Some((_, c)) = pair.find_deepest_contact() else { continue };
-                self.max_penetration_m = self.max_penetration_m.max(-c.dist);
+                if -c.dist > self.max_penetration_m {
+                    self.max_penetration_m = -c.dist;
+                    self.deepest_at = (time_s, k, side);
+                }
                 let impulse = pair.total_impulse_magnitude();
                 if impulse <= MIN_IMPULSE_NS {
                     continue;

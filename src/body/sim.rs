@@ -285,6 +285,11 @@ impl Drummer {
         self.contacts.max_penetration_m
     }
 
+    /// When (body time), into which surface and with which stick the deepest penetration was.
+    pub fn deepest_penetration_at(&self) -> (f64, usize, usize) {
+        self.contacts.deepest_at
+    }
+
     /// Put the feet where the pedals need them (kick: right, hi-hat: left). The legs are
     /// kinematic: they are there at once.
     pub fn set_feet(&mut self, targets: [super::legs::FootTarget; 2]) {

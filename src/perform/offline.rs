@@ -32,8 +32,10 @@ pub struct PhysicalTake {
     pub hands: Vec<[Pose; 2]>,
     /// The simulated hi-hat's openness at 60 fps from time 0 (empty without pedals).
     pub hihat_openness: Vec<f32>,
-    /// Deepest a stick sank into a piece, metres.
+    /// Deepest a stick sank into a piece, metres, and where: performance time, piece id,
+    /// stick.
     pub max_penetration_m: f32,
+    pub deepest_at: (f64, String, usize),
     /// Largest mechanical energy of the moving links, J.
     pub max_energy_j: f32,
     /// False if any tip left the finite numbers.
@@ -96,6 +98,10 @@ pub fn play(
         hands,
         hihat_openness,
         max_penetration_m: c.drummer().max_penetration_m(),
+        deepest_at: {
+            let (t, k, side) = c.drummer().deepest_penetration_at();
+            (t - PREROLL_S, c.drummer().surfaces()[k].id.clone(), side)
+        },
         max_energy_j,
         finite,
         steps: c.drummer().steps(),
