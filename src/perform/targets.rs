@@ -103,8 +103,6 @@ impl TipTargets {
         }
     }
 
-    /// Move `target` out from under any plate that the simulated tip `sim_tip` is below:
-    /// radially to the plate's edge plus the clearance, keeping its height.
     /// The onset of the note `hand` is playing at `t`, if the stick touching `piece` then
     /// is that note's contact: its piece, within `window_s` of its onset.
     pub fn note_touched(&self, hand: usize, t: f64, piece: usize, window_s: f64) -> Option<f64> {
@@ -112,6 +110,8 @@ impl TipTargets {
         (n.piece == piece && (t - n.time_s).abs() <= window_s).then_some(n.time_s)
     }
 
+    /// Move `target` out from under any plate that the simulated tip `sim_tip` is below:
+    /// radially to the plate's edge plus the clearance, keeping its height.
     pub fn keep_out<'a>(&self, target: &mut ArmTarget, sim_tip: Vector, plates: impl IntoIterator<Item = &'a Surface>) {
         let s = &self.settings;
         for p in plates {
