@@ -172,3 +172,59 @@ impl PedalTargets {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body::model::DT_S;
+    use crate::midi::DrumEvent;
+    use crate::motion::{MotionFrame, Pose};
+
+    /// A kick at 1.0 s and a hi-hat pedal note at 2.0 s, feet at rest, played by the pedals.
+    #[test]
+    fn the_pedals_play_a_kick_and_a_chick_on_their_onsets() {
+        let kit = Kit::builtin_default();
+        let map = NoteMap::builtin("roland-td").unwrap();
+        let on =
+            |t: f64, note: u8| DrumEvent { time_s: t, tick: 0, kind: DrumEventKind::NoteOn { note, velocity: 100 } };
+        let perf = Performance {
+            path: "t.mid".into(),
+            events: vec![on(1.0, 36), on(2.0, 44)],
+            duration_s: 3.0,
+            notes_end_s: 3.0,
+            channel: 10,
+        };
+        let rest = |i: usize| Pose { pos: FEET_HOME[i], rot: Pose::IDENTITY.rot };
+        let frame = MotionFrame {
+            hands: [Pose::IDENTITY; 2],
+            chest: Pose::IDENTITY,
+            head: Pose::IDENTITY,
+            feet: [rest(0), rest(1)],
+            face: vec![0.0; 52],
+            hihat_openness: 0.0,
+        };
+        let motion = Motion { fps: 60.0, frames: vec![frame; 181] };
+        let mut bodies = PedalBodies::new(&kit).unwrap();
+        let targets = PedalTargets::new(&perf, &map, &kit, &bodies, &motion);
+        let (mut strikes, mut touched) = (Vec::new(), None);
+        for k in 0..30_000 {
+            let t = (k + 1) as f64 * DT_S as f64;
+            let (beater, hihat) = (targets.beater(t, touched), targets.hihat(t));
+            bodies.step(beater, hihat, t, &mut |s| {
+                if s.side == crate::body::pedals::BEATER {
+                    touched = targets.kick_near(s.time_s, 0.03).map(|on| (on, s.time_s));
+                }
+                strikes.push(s)
+            });
+        }
+        let kicks: Vec<_> = strikes.iter().filter(|s| kit.pieces[s.surface].id == "kick").collect();
+        let chicks: Vec<_> = strikes.iter().filter(|s| kit.pieces[s.surface].id == "hihat").collect();
+        assert_eq!((kicks.len(), chicks.len()), (1, 1), "{strikes:?}");
+        assert!((kicks[0].time_s - 1.0).abs() < 0.002, "kick at {}", kicks[0].time_s);
+        assert!((chicks[0].time_s - 2.0).abs() < 0.002, "chick at {}", chicks[0].time_s);
+        // The beater at the speed map's speed; the foot's chick slower, as in direct mode.
+        let speed = kit.strike.speed_for_velocity(100);
+        assert!((kicks[0].speed_mps - speed).abs() < 0.1 * speed, "{} vs {speed}", kicks[0].speed_mps);
+        assert!(chicks[0].speed_mps > 0.2 * speed && chicks[0].speed_mps < 0.45 * speed, "{}", chicks[0].speed_mps);
+    }
+}
