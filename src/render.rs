@@ -481,8 +481,9 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
     // The hand model is read before anything is written: bad weights stop the render early.
     let (score, hands, staged, physical) = match opts.sound {
         SoundMode::Direct => {
-            let score = score_file(song, &kit, &map, opts)?;
-            (score, if opts.motion { Some(load_hands(opts)?) } else { None }, None, None)
+            let perf = read_song(song, &map, opts)?;
+            let score = score_performance(&perf, &kit, &map)?;
+            (score, if opts.motion { Some((load_hands(opts)?, perf)) } else { None }, None, None)
         }
         SoundMode::Physical => {
             let perf = read_song(song, &map, opts)?;
@@ -525,10 +526,7 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
     write_atomically(&json_path, &json).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", json_path.display()))?;
     let staged = match (staged, hands) {
         (Some(staged), _) => Some(staged),
-        (None, Some(hands)) => {
-            let perf = read_song(song, &map, &RenderOptions { skip_unknown: true, ..opts.clone() })?;
-            Some(stage_motion(&perf, &kit, &map, &hands)?)
-        }
+        (None, Some((hands, perf))) => Some(stage_motion(&perf, &kit, &map, &hands)?),
         (None, None) => None,
     };
     let motion = staged.map(|s| write_motion(&s, &opts.out_dir, &stem)).transpose()?;

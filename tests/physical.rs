@@ -71,6 +71,50 @@ fn the_demo_rendered_physically_sounds_the_body_s_contacts_on_time_and_repeats_e
         assert!(mean.abs() <= 2.0 && sd <= 3.0, "timing {mean:+.2} / {sd:.2} ms");
         assert!(errs.iter().all(|e| e.abs() <= 10.0));
         wavs.push(std::fs::read(out.join("demo.wav")).unwrap());
+        if run == 0 {
+            // `drumsim eval` measures what the physical render carries: the strokes' aims
+            // (IPD) and the contact speeds against velocity.
+            let r = Command::new(env!("CARGO_BIN_EXE_drumsim"))
+                .args(["eval", song.to_str().unwrap(), "--out", out.to_str().unwrap()])
+                .output()
+                .unwrap();
+            assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+            let eval: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+            let ipd_mean = eval["ipd_mm"]["mean"].as_f64().expect("IPD of a physical render");
+            let spearman = eval["velocity_speed_spearman"].as_f64().unwrap();
+            eprintln!("demo: IPD mean {ipd_mean:.1} mm, velocity-speed Spearman {spearman:.3}");
+            assert!(ipd_mean < 15.0 && spearman > 0.85, "{eval}");
+            // The motion shows the simulated sticks: near the planned ones (a direct render's),
+            // not equal to them.
+            let direct = fresh_dir("demo-direct");
+            let r = Command::new(env!("CARGO_BIN_EXE_drumsim"))
+                .args(["render", song.to_str().unwrap(), "--out", direct.to_str().unwrap()])
+                .output()
+                .unwrap();
+            assert!(r.status.success());
+            let tips = |dir: &Path| -> Vec<f64> {
+                let m: serde_json::Value =
+                    serde_json::from_slice(&std::fs::read(dir.join("demo.motion.json")).unwrap()).unwrap();
+                m["frames"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .flat_map(|f| f["tips"].as_array().unwrap().iter().flat_map(|t| t.as_array().unwrap().clone()))
+                    .map(|v| v.as_f64().unwrap())
+                    .collect()
+            };
+            let (sim, plan) = (tips(&out), tips(&direct));
+            assert_eq!(sim.len(), plan.len());
+            let mut d: Vec<f64> = sim
+                .chunks(3)
+                .zip(plan.chunks(3))
+                .map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt())
+                .collect();
+            d.sort_by(f64::total_cmp);
+            let median = d[d.len() / 2];
+            eprintln!("demo: simulated tips {:.1} mm from the planned ones (median)", median * 1e3);
+            assert!(median > 1e-4 && median < 0.03, "median {median} m");
+        }
     }
     assert!(wavs[0] == wavs[1], "two physical renders of the demo differ");
 }

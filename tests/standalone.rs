@@ -16,6 +16,14 @@ fn fresh_dir(tag: &str) -> PathBuf {
     dir
 }
 
+/// A fresh folder holding a copy of the release binary, and that copy's path.
+fn binary_alone(tag: &str) -> (PathBuf, PathBuf) {
+    let dir = fresh_dir(tag);
+    let exe = dir.join("drumsim");
+    std::fs::copy(env!("CARGO_BIN_EXE_drumsim"), &exe).unwrap();
+    (dir, exe)
+}
+
 /// Runs `exe` in `cwd` with an empty environment.
 fn run_bare(exe: &Path, cwd: &Path, args: &[&str]) -> Output {
     Command::new(exe).args(args).current_dir(cwd).env_clear().output().expect("run drumsim")
@@ -28,9 +36,7 @@ fn stderr(o: &Output) -> String {
 #[test]
 fn a_copied_binary_renders_the_demo_with_the_compiled_in_model() {
     // The binary alone in an empty folder, with the demo song beside it and nothing else.
-    let alone = fresh_dir("alone");
-    let exe = alone.join("drumsim");
-    std::fs::copy(env!("CARGO_BIN_EXE_drumsim"), &exe).unwrap();
+    let (alone, exe) = binary_alone("alone");
     std::fs::copy(root().join("assets/demo/demo.mid"), alone.join("demo.mid")).unwrap();
     let r = run_bare(&exe, &alone, &["render", "demo.mid", "--out", "out"]);
     assert!(r.status.success(), "{}", stderr(&r));
@@ -57,9 +63,7 @@ fn a_copied_binary_renders_the_demo_with_the_compiled_in_model() {
 
 #[test]
 fn the_teacher_plays_only_when_asked_for() {
-    let dir = fresh_dir("teacher");
-    let exe = dir.join("drumsim");
-    std::fs::copy(env!("CARGO_BIN_EXE_drumsim"), &exe).unwrap();
+    let (dir, exe) = binary_alone("teacher");
     let song = root().join("assets/demo/demo.mid");
     let r = run_bare(&exe, &dir, &["render", song.to_str().unwrap(), "--out", "out", "--teacher"]);
     assert!(r.status.success(), "{}", stderr(&r));
@@ -83,9 +87,7 @@ fn version_names_the_features_built_in() {
 
 #[test]
 fn built_in_kits_are_chosen_by_name_from_anywhere() {
-    let dir = fresh_dir("kits");
-    let exe = dir.join("drumsim");
-    std::fs::copy(env!("CARGO_BIN_EXE_drumsim"), &exe).unwrap();
+    let (dir, exe) = binary_alone("kits");
     let song = root().join("assets/demo/demo.mid");
     let r =
         run_bare(&exe, &dir, &["render", song.to_str().unwrap(), "--out", "out", "--kit", "rearranged", "--no-motion"]);

@@ -174,3 +174,14 @@ fn hand_onsets_leave_out_the_feet() {
     };
     assert_eq!(hand_onsets_s(&perf, &map), vec![0.0, 0.5]);
 }
+
+#[test]
+fn spearman_ranks_ties_and_refuses_what_it_cannot_rank() {
+    // Monotone but not linear: 1. Reversed: -1. Ties take their mean rank.
+    assert!((spearman(&[1.0, 2.0, 3.0, 4.0], &[1.0, 8.0, 27.0, 64.0]).unwrap() - 1.0).abs() < 1e-12);
+    assert!((spearman(&[1.0, 2.0, 3.0], &[3.0, 2.0, 1.0]).unwrap() + 1.0).abs() < 1e-12);
+    assert_eq!(ranks(&[5.0, 1.0, 5.0, 3.0]), vec![3.5, 1.0, 3.5, 2.0]);
+    assert!((spearman(&[1.0, 2.0, 2.0, 3.0], &[1.0, 2.0, 3.0, 4.0]).unwrap() - 0.9486832980505138).abs() < 1e-9);
+    assert_eq!(spearman(&[1.0, 2.0], &[1.0, 2.0]), None);
+    assert_eq!(spearman(&[1.0, 1.0, 1.0], &[1.0, 2.0, 3.0]), None);
+}

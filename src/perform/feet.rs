@@ -32,6 +32,23 @@ const CHICK_LIFT_S: f64 = 0.030;
 /// The beater's return to rest, time constant, seconds.
 const RETURN_S: f32 = 0.030;
 
+/// The pedal notes on `piece` in time order: onset and `rate(velocity)`.
+fn pedal_notes(perf: &Performance, map: &NoteMap, piece: &str, rate: impl Fn(u8) -> f32) -> Vec<(f64, f32)> {
+    let mut out: Vec<(f64, f32)> = perf
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            DrumEventKind::NoteOn { note, velocity } => map
+                .entry(note)
+                .filter(|m| m.zone == Zone::Pedal && m.piece == piece)
+                .map(|_| (e.time_s, rate(velocity))),
+            _ => None,
+        })
+        .collect();
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out
+}
+
 /// The feet's targets over a song.
 pub struct PedalTargets {
     /// Kick notes: onset, angular speed at the head (rad/s).
@@ -51,33 +68,11 @@ impl PedalTargets {
     pub fn new(perf: &Performance, map: &NoteMap, kit: &Kit, bodies: &PedalBodies, motion: &Motion) -> PedalTargets {
         let (rest, contact) = (bodies.beater_rest_rad(), bodies.beater_contact_rad());
         let arm = bodies.pedals().beater_length_m * contact.cos();
-        let mut kicks: Vec<(f64, f32)> = perf
-            .events
-            .iter()
-            .filter_map(|e| match e.kind {
-                DrumEventKind::NoteOn { note, velocity } => map
-                    .entry(note)
-                    .filter(|m| m.zone == Zone::Pedal && m.piece == "kick")
-                    .map(|_| (e.time_s, kit.strike.speed_for_velocity(velocity) / arm.max(0.01))),
-                _ => None,
-            })
-            .collect();
-        kicks.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut kicks = pedal_notes(perf, map, "kick", |v| kit.strike.speed_for_velocity(v) / arm.max(0.01));
         // E-kit double triggers: kicks closer than 12 ms are one stroke.
         kicks.dedup_by(|b, a| b.0 - a.0 < 0.012);
         let travel = bodies.pedals().hihat_travel_m;
-        let mut chicks: Vec<(f64, f32)> = perf
-            .events
-            .iter()
-            .filter_map(|e| match e.kind {
-                DrumEventKind::NoteOn { note, velocity } => map
-                    .entry(note)
-                    .filter(|m| m.zone == Zone::Pedal && m.piece == "hihat")
-                    .map(|_| (e.time_s, CHICK_SPEED_SCALE * kit.strike.speed_for_velocity(velocity) / travel)),
-                _ => None,
-            })
-            .collect();
-        chicks.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let chicks = pedal_notes(perf, map, "hihat", |v| CHICK_SPEED_SCALE * kit.strike.speed_for_velocity(v) / travel);
         let mut lift: Vec<f32> = motion
             .frames
             .iter()
