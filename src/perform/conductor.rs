@@ -1,6 +1,6 @@
 //! The conductor: the body driven by 250 Hz tip targets, one task period (40 physics steps
-//! at 10 kHz) at a time, Algorithm 2's loop. The offline render and the live mode call the
-//! same [`Conductor::period`]; only the clock that calls it differs.
+//! at 10 kHz) at a time, Algorithm 2's loop. The offline render calls [`Conductor::period`];
+//! the live physical mode (not built yet) is to call the same, paced by the audio clock.
 
 use super::feet::PedalTargets;
 use super::targets::{TargetSettings, TipTargets};

@@ -4,7 +4,7 @@
 //! - `targets.rs`: the body's 250 Hz stick-tip targets from the planned hands (the bead's
 //!   radius, a press into the surface at the onset, a keep-out under cymbals).
 //! - `conductor.rs`: one task period of Algorithm 2 (40 physics steps toward interpolated
-//!   targets); the step function offline and live share.
+//!   targets); the step function the live physical mode is to share (not built yet).
 //! - `feet.rs`: the pedals' targets (the kick beater's swing to each kick note, the hi-hat
 //!   following the left foot); the pedal bodies themselves are in `body/pedals.rs`.
 //! - `offline.rs`: a whole song, its contacts as contact messages, the simulated tips.
