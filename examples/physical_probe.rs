@@ -7,7 +7,7 @@ use drumsim::midi::{read_file, NoteMap, ReadOptions, Zone};
 use drumsim::motion::hands::HandModel;
 use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
 use drumsim::perform::matching::{match_contacts, onsets};
-use drumsim::perform::play;
+use drumsim::perform::play_with;
 use std::path::Path;
 
 /// Pedal notes on `piece`: hit (`hit` true) or all.
@@ -29,7 +29,11 @@ fn main() {
         let predicted = model_hands(&model, &perf, &map);
         let planned = perform_planned(&perf, &map, &kit, &predicted, &library).unwrap();
         let started = std::time::Instant::now();
-        let take_ = play(&kit, &perf, &map, &planned, perf.notes_end_s + 0.5).unwrap();
+        let mut settings = drumsim::perform::RehearsalSettings::default();
+        if let Some(a) = std::env::var("ATTEMPTS").ok().and_then(|v| v.parse().ok()) {
+            settings.attempts = a;
+        }
+        let take_ = play_with(&kit, &perf, &map, &planned, perf.notes_end_s + 0.5, &settings).unwrap();
         let wall = started.elapsed().as_secs_f64();
         let all = onsets(&perf, &map);
         let hand = all.clone();
@@ -50,7 +54,7 @@ fn main() {
         let sd = (errs.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / errs.len().max(1) as f64).sqrt();
         if std::env::var_os("JSON").is_none() {
             println!(
-            "{take}: {:.1} s in {wall:.1} s ({:.1}x real time); notes {} hit {:.2} % (kick {}/{}, hi-hat pedal {}/{}), contacts {} spurious {} ({:.2} %); timing {mean:+.2} / sd {sd:.2} ms; sank {:.1} mm, energy {:.0} J, finite {}",
+            "{take}: {:.1} s in {wall:.1} s ({:.1}x real time); notes {} hit {:.2} % (kick {}/{}, hi-hat pedal {}/{}), contacts {} spurious {} ({:.2} %); timing {mean:+.2} / sd {sd:.2} ms; {} notes rehearsed, {} replays; sank {:.1} mm, energy {:.0} J, finite {}",
             perf.notes_end_s,
             perf.notes_end_s / wall,
             hand.len(),
@@ -62,6 +66,8 @@ fn main() {
             of.len(),
             spurious.len(),
             100.0 * spurious.len() as f64 / of.len().max(1) as f64,
+            take_.rehearsed,
+            take_.replays,
             take_.max_penetration_m * 1e3,
             take_.max_energy_j,
             take_.finite
@@ -89,10 +95,46 @@ fn main() {
                 "take": take, "seconds": perf.notes_end_s, "wall_s": wall, "notes": hand.len(), "hit": hit,
                 "contacts": of.len(), "spurious": spurious.len(), "timing_ms": errs,
                 "vel_speed": vel_speed, "ipd_mm": ipd_mm, "sank_mm": take_.max_penetration_m * 1e3,
-                "energy_j": take_.max_energy_j, "finite": take_.finite, "deepest_at": take_.deepest_at,
+                "energy_j": take_.max_energy_j, "replays": take_.replays, "rehearsed": take_.rehearsed, "finite": take_.finite, "deepest_at": take_.deepest_at,
             });
             println!("{line}");
             continue;
+        }
+        if std::env::var_os("DIAG").is_some() {
+            // Why notes were missed and where spurious contacts came from.
+            let near_piece = |t: f64, piece: &str, w: f64| {
+                take_
+                    .messages
+                    .iter()
+                    .filter(|m| {
+                        (m.time_s as f64 - t).abs() <= w
+                            && (m.piece == piece || m.piece.strip_suffix("_rim") == Some(piece))
+                    })
+                    .count()
+            };
+            let (mut timing, mut other, mut none) = (0, 0, 0);
+            for (o, _) in hand.iter().zip(&played).filter(|(_, p)| !**p) {
+                if near_piece(o.time_s, &o.piece, 0.04) > 0 {
+                    timing += 1;
+                } else if take_.messages.iter().any(|m| (m.time_s as f64 - o.time_s).abs() <= 0.01) {
+                    other += 1;
+                } else {
+                    none += 1;
+                }
+            }
+            let (mut bounce, mut graze) = (0, 0);
+            let mut by_piece = std::collections::BTreeMap::<String, usize>::new();
+            for &k in &spurious {
+                let m = &take_.messages[k];
+                let base = m.piece.strip_suffix("_rim").unwrap_or(&m.piece);
+                if hand.iter().any(|o| o.piece == base && (o.time_s - m.time_s as f64).abs() <= 0.06) {
+                    bounce += 1;
+                } else {
+                    graze += 1;
+                    *by_piece.entry(m.piece.clone()).or_default() += 1;
+                }
+            }
+            println!("  missed: off-time(<=40ms on piece) {timing}, other piece only {other}, nothing {none}; spurious: near a note on its piece {bounce}, no note near {graze} {by_piece:?}");
         }
         if std::env::var_os("VERBOSE").is_some() {
             println!("  deepest: {:?}", take_.deepest_at);
@@ -108,8 +150,22 @@ fn main() {
                     m.time_s, m.piece, m.speed_mps, m.limb
                 );
             }
-            for (o, _) in hand.iter().zip(&played).filter(|(_, p)| !**p).take(15) {
-                println!("  missed {:.3} s {} {:?} v{}", o.time_s, o.piece, o.zone, o.velocity);
+            for (o, _) in hand.iter().zip(&played).filter(|(_, p)| !**p).take(25) {
+                let near: Vec<String> = take_
+                    .messages
+                    .iter()
+                    .filter(|m| (m.time_s as f64 - o.time_s).abs() < 0.05)
+                    .map(|m| {
+                        format!(
+                            "{}{:+.1}ms/{:?}/{:.2}",
+                            m.piece,
+                            (m.time_s as f64 - o.time_s) * 1e3,
+                            m.limb,
+                            m.speed_mps
+                        )
+                    })
+                    .collect();
+                println!("  missed {:.3} s {} {:?} v{}: {near:?}", o.time_s, o.piece, o.zone, o.velocity);
             }
         }
     }

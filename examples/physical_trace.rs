@@ -30,13 +30,17 @@ fn main() {
         let mut hits = Vec::new();
         let fine = std::env::var_os("STEPS").is_some();
         c.period_observed(&mut |s| hits.push(s), &mut |d, t, tg| {
-            if fine && (t - at).abs() < 0.004 {
+            if fine && (t - at).abs() < 0.012 && ((t * 1e4).round() as i64) % 10 == 0 {
                 let s = &d.surfaces()[k];
                 let tip = d.tips(Mode::Himc)[hand];
+                let kin = d.tips(Mode::Ik)[hand];
                 println!(
-                    "    step {t:.4} target h {:+6.2} mm sim h {:+6.2} mm",
+                    "    step {t:.4} target h {:+6.2} mm kinematic h {:+6.2} mm sim h {:+6.2} mm limit excess {:.3} at {}",
                     s.height(tg[hand].tip) * 1e3,
-                    s.height(tip) * 1e3
+                    s.height(kin) * 1e3,
+                    s.height(tip) * 1e3,
+                    d.max_limit_excess,
+                    d.worst_limit_joint
                 );
             }
         });
@@ -45,6 +49,8 @@ fn main() {
             let s = &c.drummer().surfaces()[k];
             let tip = c.drummer().tips(Mode::Himc)[hand];
             let target = c.last_targets()[hand].tip;
+            let on: Vec<&str> = c.drummer().touching(hand).map(|k| c.drummer().surfaces()[k].id.as_str()).collect();
+            print!("{on:?} ");
             println!(
                 "t {t:.3} target h {:+6.1} mm sim h {:+6.1} mm  planar {:5.1} mm {}",
                 s.height(target) * 1e3,

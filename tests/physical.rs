@@ -3,12 +3,13 @@
 //! README lists both): hand notes hit within 10 ms, contacts that play no note, timing,
 //! sticks that do not sink, and repeatability.
 
+use drumsim::body::sim::{DrummerSettings, Mode};
 use drumsim::kit::Kit;
 use drumsim::midi::{read_file, NoteMap, ReadOptions, Zone};
 use drumsim::motion::hands::HandModel;
 use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
 use drumsim::perform::matching::{match_contacts, onsets};
-use drumsim::perform::play;
+use drumsim::perform::{play, play_with, Conductor, RehearsalSettings};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -191,4 +192,64 @@ fn a_kit_without_pedals_plays_the_hands_and_says_so_and_live_physical_is_refused
     let r = Command::new(env!("CARGO_BIN_EXE_drumsim")).args(["live", "--sound", "physical"]).output().unwrap();
     assert_eq!(r.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&r.stderr).contains("live --sound physical is not built yet"));
+}
+
+/// The rehearsal's premise: a snapshot of the body plays on exactly as the original did, so
+/// a stroke played again from one differs only by its corrected targets.
+#[test]
+fn a_snapshot_of_the_body_plays_on_exactly_as_the_original() {
+    let map = NoteMap::builtin("roland-td").unwrap();
+    let kit = Kit::builtin_default();
+    let song = root().join("data/gmd/drummer1/session1/1_funk_80_beat_4-4.mid");
+    let perf = read_file(&song, &ReadOptions { channel: 10 }).unwrap();
+    let predicted = model_hands(&HandModel::shipped(), &perf, &map);
+    let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library().unwrap()).unwrap();
+    let mut c = Conductor::new(&kit, &perf, &map, &planned, DrummerSettings::default()).unwrap();
+    while c.time_s() < 2.0 {
+        c.period(&mut |_| {});
+    }
+    let snapshot = c.snapshot();
+    let mut run = |c: &mut Conductor| {
+        let (mut strikes, mut tips) = (Vec::new(), Vec::new());
+        while c.time_s() < 3.5 {
+            c.period(&mut |s| strikes.push(s));
+            tips.push(c.drummer().tips(Mode::Himc));
+        }
+        (strikes, tips)
+    };
+    let first = run(&mut c);
+    assert!(first.0.len() >= 8, "{} strikes in 1.5 s of funk", first.0.len());
+    c.restore(&snapshot);
+    assert_eq!(c.time_s(), snapshot.time_s());
+    let again = run(&mut c);
+    assert_eq!(first, again);
+}
+
+/// The rehearsal lifts the funk take's hits and timing above a straight play, and the
+/// straight play (no attempts) is what the conductor alone does.
+#[test]
+fn the_rehearsal_plays_missed_and_late_strokes_again_until_they_land() {
+    let map = NoteMap::builtin("roland-td").unwrap();
+    let kit = Kit::builtin_default();
+    let song = root().join("data/gmd/drummer1/session1/1_funk_80_beat_4-4.mid");
+    let perf = read_file(&song, &ReadOptions { channel: 10 }).unwrap();
+    let predicted = model_hands(&HandModel::shipped(), &perf, &map);
+    let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library().unwrap()).unwrap();
+    let end = 30.0;
+    let hand: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < end - 0.1).collect();
+    let measure = |attempts: u8| {
+        let settings = RehearsalSettings { attempts, ..RehearsalSettings::default() };
+        let take = play_with(&kit, &perf, &map, &planned, end, &settings).unwrap();
+        let (_, played) = match_contacts(&hand, &take.messages);
+        (played.iter().filter(|p| **p).count(), take.replays)
+    };
+    let (straight, none) = measure(0);
+    let (rehearsed, replays) = measure(RehearsalSettings::default().attempts);
+    eprintln!(
+        "first 30 s of funk: {straight} of {} notes hit straight, {rehearsed} rehearsed ({replays} replays)",
+        hand.len()
+    );
+    assert_eq!(none, 0);
+    assert!(replays > 0);
+    assert!(rehearsed > straight, "{rehearsed} <= {straight}");
 }

@@ -69,6 +69,7 @@ impl Strike {
 const APPROACH_STEPS: usize = 30;
 
 /// Contact state of both sticks against every surface.
+#[derive(Clone)]
 pub struct ContactTracker {
     /// Last time each (stick, surface) pair had impulse; NaN when not in contact.
     touching_since: [Vec<f64>; 2],
@@ -90,6 +91,11 @@ impl ContactTracker {
             max_penetration_m: 0.0,
             deepest_at: (0.0, 0, 0),
         }
+    }
+
+    /// The surfaces stick `side` is touching now (struck or resting).
+    pub fn touching(&self, side: usize) -> impl Iterator<Item = usize> + '_ {
+        self.touching_since[side].iter().enumerate().filter(|(_, t)| !t.is_nan()).map(|(k, _)| k)
     }
 
     /// Look at the contacts after a step ending at `time_s`; report new ones to `sink`.

@@ -97,6 +97,34 @@ pub struct Model {
     pub owners: Vec<(ColliderHandle, usize)>,
 }
 
+/// A copy of the world that steps exactly as the original from here on: every set, the
+/// broad and narrow phases (with their contact caches) cloned, the pipelines (workspace
+/// only) made anew. The offline render rehearses a stroke again from such a copy.
+impl Clone for Model {
+    fn clone(&self) -> Model {
+        let w = &self.world;
+        let mut world = PhysicsWorld::new();
+        world.gravity = w.gravity;
+        world.integration_parameters = w.integration_parameters;
+        world.islands = w.islands.clone();
+        world.broad_phase = w.broad_phase.clone();
+        world.narrow_phase = w.narrow_phase.clone();
+        world.bodies = w.bodies.clone();
+        world.colliders = w.colliders.clone();
+        world.impulse_joints = w.impulse_joints.clone();
+        world.multibody_joints = w.multibody_joints.clone();
+        world.soft_bodies = w.soft_bodies.clone();
+        Model {
+            world,
+            bodies: self.bodies,
+            joints: self.joints.clone(),
+            sticks: self.sticks,
+            surfaces: self.surfaces.clone(),
+            owners: self.owners.clone(),
+        }
+    }
+}
+
 impl Model {
     /// The surface a kit collider belongs to.
     pub fn surface_of(&self, c: ColliderHandle) -> Option<usize> {

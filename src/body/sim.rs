@@ -125,7 +125,8 @@ pub const MAX_JOINT_SPEED_RAD_S: f32 = 40.0;
 /// hi-hat (right), metres.
 pub const READY_HEIGHT_M: f32 = 0.10;
 
-/// The simulated drummer.
+/// The simulated drummer. A clone steps exactly as the original from where it was taken.
+#[derive(Clone)]
 pub struct Drummer {
     pub skel: Skeleton,
     pub settings: DrummerSettings,
@@ -278,6 +279,11 @@ impl Drummer {
             e += b.kinetic_energy() + b.mass() * g * b.center_of_mass().z;
         }
         e
+    }
+
+    /// The surfaces stick `side` (0 left, 1 right) is touching now, struck or resting.
+    pub fn touching(&self, side: usize) -> impl Iterator<Item = usize> + '_ {
+        self.contacts.touching(side)
     }
 
     /// Largest penetration of a stick into a kit piece seen so far, metres.

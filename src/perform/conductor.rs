@@ -25,24 +25,48 @@ pub const TOUCH_WINDOW_S: f64 = 0.030;
 /// contacts in that time are not part of the performance.
 pub const PREROLL_S: f64 = 0.5;
 
-/// The body, its targets and where the song stands.
-pub struct Conductor {
+/// Where the body stands: everything a period changes. A clone is a snapshot the
+/// offline rehearsal plays a stroke again from ([`Conductor::snapshot`]).
+#[derive(Clone)]
+pub struct BodyState {
     drummer: Drummer,
-    targets: TipTargets,
-    /// Surface indices of the cymbals (plates without a drum below them).
-    plates: Vec<usize>,
-    /// The kit piece each surface belongs to (a hoop's is its drum).
-    piece_of: Vec<usize>,
     /// Targets at the start of the current period.
     from: [ArmTarget; 2],
     /// Per hand, the last stroke the stick was felt to land: (the note's onset, contact time).
     touched: [Option<(f64, f64)>; 2],
-    /// The kick beater and the hi-hat, with their targets, when the kit has pedals.
-    pedals: Option<(PedalBodies, PedalTargets)>,
+    /// The kick beater and the hi-hat, when the kit has pedals.
+    pedals: Option<PedalBodies>,
     /// The last kick the beater was felt to land: (the note's onset, contact time).
     kick_touched: Option<(f64, f64)>,
     /// Performance time of the next period's start, seconds (negative in the preroll).
     t: f64,
+}
+
+/// The body, its targets and where the song stands.
+pub struct Conductor {
+    state: BodyState,
+    targets: TipTargets,
+    /// The pedals' targets, when the kit has pedals.
+    pedal_targets: Option<PedalTargets>,
+    /// Surface indices of the cymbals (plates without a drum below them).
+    plates: Vec<usize>,
+    /// The kit piece each surface belongs to (a hoop's is its drum).
+    piece_of: Vec<usize>,
+    /// The targets the last period ended on before the learned offsets and clearances: where
+    /// the plan wants the tips.
+    aims: [Vector; 2],
+}
+
+/// The task period (from the preroll's start) that ends at performance time `t`.
+pub fn period_index(t: f64) -> usize {
+    ((t + PREROLL_S) * TASK_HZ).round().max(0.0) as usize
+}
+
+impl BodyState {
+    /// Performance time of the next period, seconds.
+    pub fn time_s(&self) -> f64 {
+        self.t
+    }
 }
 
 impl Conductor {
@@ -57,10 +81,8 @@ impl Conductor {
         let drummer = Drummer::new(kit, settings)?;
         let bead = drummer.skel.stick.radius_m;
         let targets = TipTargets::new(&planned.hands, bead, TargetSettings::default());
-        let pedals = PedalBodies::new(kit).map(|b| {
-            let t = PedalTargets::new(perf, map, kit, &b, &planned.motion);
-            (b, t)
-        });
+        let bodies = PedalBodies::new(kit);
+        let pedal_targets = bodies.as_ref().map(|b| PedalTargets::new(perf, map, kit, b, &planned.motion));
         let plates = drummer
             .surfaces()
             .iter()
@@ -76,26 +98,58 @@ impl Conductor {
             .collect();
         let t = -PREROLL_S;
         let from = [targets.at(0, t, None), targets.at(1, t, None)];
-        Ok(Conductor { drummer, targets, plates, piece_of, from, touched: [None; 2], pedals, kick_touched: None, t })
+        let state = BodyState { drummer, from, touched: [None; 2], pedals: bodies, kick_touched: None, t };
+        Ok(Conductor { state, targets, pedal_targets, plates, piece_of, aims: [from[0].tip, from[1].tip] })
+    }
+
+    /// A copy of where the body stands, to go back to with [`Self::restore`].
+    pub fn snapshot(&self) -> BodyState {
+        self.state.clone()
+    }
+
+    /// Go back to a [`Self::snapshot`]: the body steps from there exactly as it did then,
+    /// but for the targets' corrections made since.
+    pub fn restore(&mut self, snapshot: &BodyState) {
+        self.state.clone_from(snapshot);
+    }
+
+    /// The targets, to correct strokes ([`TipTargets::offsets_mut`]).
+    pub fn targets_mut(&mut self) -> &mut TipTargets {
+        &mut self.targets
+    }
+
+    pub fn targets(&self) -> &TipTargets {
+        &self.targets
+    }
+
+    /// The kit piece each of the body's surfaces belongs to (a hoop's is its drum).
+    pub fn piece_of(&self) -> &[usize] {
+        &self.piece_of
     }
 
     /// Performance time of the next period, seconds.
     pub fn time_s(&self) -> f64 {
-        self.t
+        self.state.t
     }
 
     pub fn drummer(&self) -> &Drummer {
-        &self.drummer
+        &self.state.drummer
     }
 
     /// The pedal bodies, when the kit has pedals.
     pub fn pedals(&self) -> Option<&PedalBodies> {
-        self.pedals.as_ref().map(|(b, _)| b)
+        self.state.pedals.as_ref()
+    }
+
+    /// Where the plan wanted the tips at the end of the last period (before the learned
+    /// offsets and the clearances).
+    pub fn aims(&self) -> [Vector; 2] {
+        self.aims
     }
 
     /// The targets the last period ended on.
     pub fn last_targets(&self) -> &[ArmTarget; 2] {
-        &self.from
+        &self.state.from
     }
 
     /// One task period: the targets at its end, then 40 physics steps toward targets
@@ -112,17 +166,21 @@ impl Conductor {
         sink: &mut impl FnMut(Strike),
         observe: &mut impl FnMut(&Drummer, f64, &[ArmTarget; 2]),
     ) {
-        let t1 = self.t + 1.0 / TASK_HZ;
-        let sim = self.drummer.tips(Mode::Himc);
-        let mut to = [self.targets.at(0, t1, self.touched[0]), self.targets.at(1, t1, self.touched[1])];
-        let surfaces = self.drummer.surfaces();
+        let st = &mut self.state;
+        let t1 = st.t + 1.0 / TASK_HZ;
+        let sim = st.drummer.tips(Mode::Himc);
+        let p1 = period_index(t1);
+        let mut to = [self.targets.at(0, t1, st.touched[0]), self.targets.at(1, t1, st.touched[1])];
+        self.aims = to.map(|a| a.tip);
+        let surfaces = st.drummer.surfaces();
         for (h, target) in to.iter_mut().enumerate() {
+            target.tip += self.targets.offset(h, p1);
             self.targets.clear(h, t1, target, surfaces, &self.piece_of);
             self.targets.keep_out(target, sim[h], self.plates.iter().map(|&i| &surfaces[i]));
         }
-        let offset = self.drummer.time_s() - self.t;
+        let offset = st.drummer.time_s() - st.t;
         // Each hand's interpolation runs from `start` at step `k0` to `to` at the period's end.
-        let mut start = self.from;
+        let mut start = st.from;
         let mut k0 = [0usize; 2];
         for k in 0..STEPS_PER_PERIOD {
             let tg: [ArmTarget; 2] = std::array::from_fn(|h| {
@@ -132,9 +190,9 @@ impl Conductor {
                     dir: start[h].dir.lerp(to[h].dir, a).normalize_or(Vector::Y),
                 }
             });
-            let before = self.touched;
-            let (targets, piece_of, touched) = (&self.targets, &self.piece_of, &mut self.touched);
-            self.drummer.step_tips(Mode::Himc, &tg, &mut |mut s: Strike| {
+            let before = st.touched;
+            let (targets, piece_of, touched) = (&self.targets, &self.piece_of, &mut st.touched);
+            st.drummer.step_tips(Mode::Himc, &tg, &mut |mut s: Strike| {
                 s.time_s -= offset;
                 // The hand feels its stroke land: its targets rebound from here.
                 if let Some(onset) = targets.note_touched(s.side, s.time_s, piece_of[s.surface], TOUCH_WINDOW_S) {
@@ -142,10 +200,10 @@ impl Conductor {
                 }
                 sink(s)
             });
-            observe(&self.drummer, self.t + (k + 1) as f64 * DT_S as f64, &tg);
-            if let Some((bodies, targets)) = &mut self.pedals {
-                let t = self.t + (k + 1) as f64 * DT_S as f64;
-                let kick_touched = &mut self.kick_touched;
+            observe(&st.drummer, st.t + (k + 1) as f64 * DT_S as f64, &tg);
+            if let (Some(bodies), Some(targets)) = (&mut st.pedals, &self.pedal_targets) {
+                let t = st.t + (k + 1) as f64 * DT_S as f64;
+                let kick_touched = &mut st.kick_touched;
                 let (beater, hihat) = (targets.beater(t, *kick_touched), targets.hihat(t));
                 bodies.step(beater, hihat, t, &mut |s: Strike| {
                     if s.side == BEATER {
@@ -157,16 +215,18 @@ impl Conductor {
                 });
             }
             for h in 0..2 {
-                if self.touched[h] != before[h] && k + 1 < STEPS_PER_PERIOD {
+                if st.touched[h] != before[h] && k + 1 < STEPS_PER_PERIOD {
                     // Mid-period: the rest of the period heads for the rebound at once.
-                    to[h] = self.targets.at(h, t1, self.touched[h]);
+                    to[h] = self.targets.at(h, t1, st.touched[h]);
+                    self.aims[h] = to[h].tip;
+                    to[h].tip += self.targets.offset(h, p1);
                     start[h] = tg[h];
                     k0[h] = k + 1;
                 }
             }
         }
-        self.from = to;
-        self.t = t1;
-        debug_assert!((self.drummer.time_s() - offset - self.t).abs() < DT_S as f64);
+        st.from = to;
+        st.t = t1;
+        debug_assert!((st.drummer.time_s() - offset - st.t).abs() < DT_S as f64);
     }
 }

@@ -8,6 +8,8 @@
 //! - `feet.rs`: the pedals' targets (the kick beater's swing to each kick note, the hi-hat
 //!   following the left foot); the pedal bodies themselves are in `body/pedals.rs`.
 //! - `offline.rs`: a whole song, its contacts as contact messages, the simulated tips.
+//! - `rehearsal.rs`: the offline correction: each note's contact judged, a stroke that fell
+//!   off its note played again from a snapshot with corrected targets.
 //! - `matching.rs`: which note each contact played (bookkeeping for files and reports; the
 //!   sound never reads it).
 
@@ -15,7 +17,9 @@ pub mod conductor;
 pub mod feet;
 pub mod matching;
 pub mod offline;
+pub mod rehearsal;
 pub mod targets;
 
 pub use conductor::{Conductor, PREROLL_S, STEPS_PER_PERIOD};
-pub use offline::{play, PhysicalTake};
+pub use offline::{play, play_with, PhysicalTake};
+pub use rehearsal::RehearsalSettings;

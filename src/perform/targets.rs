@@ -54,6 +54,9 @@ pub struct TipTargets {
     planned: PlannedHands,
     bead_m: f32,
     settings: TargetSettings,
+    /// Per hand, the rehearsal's learned offset of the target at each task period (from
+    /// the preroll's start; empty until the rehearsal writes one).
+    offsets: [Vec<Vector>; 2],
 }
 
 impl TipTargets {
@@ -61,7 +64,26 @@ impl TipTargets {
     /// dwell), aimed for a bead of radius `bead_m`.
     pub fn new(planned: &PlannedHands, bead_m: f32, settings: TargetSettings) -> TipTargets {
         let planned = planned.with_settings(StrokeSettings { dwell_s: 0.0, ..StrokeSettings::default() });
-        TipTargets { planned, bead_m, settings }
+        TipTargets { planned, bead_m, settings, offsets: [Vec::new(), Vec::new()] }
+    }
+
+    /// The plan the targets follow.
+    pub fn planned(&self) -> &PlannedHands {
+        &self.planned
+    }
+
+    /// The learned offset of `hand`'s target at task period `p`.
+    pub fn offset(&self, hand: usize, p: usize) -> Vector {
+        self.offsets[hand].get(p).copied().unwrap_or(Vector::ZERO)
+    }
+
+    /// The learned offsets of `hand`'s targets, one per task period, grown to `periods`.
+    pub fn offsets_mut(&mut self, hand: usize, periods: usize) -> &mut [Vector] {
+        let o = &mut self.offsets[hand];
+        if o.len() < periods {
+            o.resize(periods, Vector::ZERO);
+        }
+        o
     }
 
     /// The target of `hand` at `t` (before the clearance and keep-out, which need the body's

@@ -156,10 +156,8 @@ impl PlannedHands {
     /// surface, 0 at the window's edges).
     fn stroke(&self, hand: usize, k: usize, t: f64) -> (f32, f32) {
         let s = &self.settings;
-        let ns = &self.notes[hand];
-        let n = &ns[k].0;
-        let before = k.checked_sub(1).map_or(s.window_s, |j| (0.5 * (n.time_s - ns[j].0.time_s)).min(s.window_s));
-        let after = ns.get(k + 1).map_or(s.window_s, |m| (0.5 * (m.0.time_s - n.time_s)).min(s.window_s));
+        let n = &self.notes[hand][k].0;
+        let (before, after) = self.windows(hand, k);
         let d = s.dwell_s.min(0.5 * before).min(0.5 * after);
         let v = (n.velocity.clamp(1, 127) as f32 / 127.0).powf(1.5);
         let lift = s.lift_m.0 + (s.lift_m.1 - s.lift_m.0) * v;
@@ -174,6 +172,24 @@ impl PlannedHands {
         let h = if lift > 0.0 { lift * (speed * tau as f32 / lift).tanh() } else { 0.0 };
         let w = 0.5 * (1.0 + (std::f64::consts::PI * (tau / span.max(1e-9)).min(1.0)).cos()) as f32;
         (h, w)
+    }
+
+    /// Note `k`'s preparation and rebound windows: half the time to its neighbours, at most
+    /// the settings' window.
+    fn windows(&self, hand: usize, k: usize) -> (f64, f64) {
+        let (ns, w) = (&self.notes[hand], self.settings.window_s);
+        let t = ns[k].0.time_s;
+        let before = k.checked_sub(1).map_or(w, |j| (0.5 * (t - ns[j].0.time_s)).min(w));
+        let after = ns.get(k + 1).map_or(w, |m| (0.5 * (m.0.time_s - t)).min(w));
+        (before, after)
+    }
+
+    /// The time the stroke of `hand`'s note `k` holds: from the start of its preparation to
+    /// the end of its rebound (seconds).
+    pub fn stroke_span(&self, hand: usize, k: usize) -> (f64, f64) {
+        let (before, after) = self.windows(hand, k);
+        let t = self.notes[hand][k].0.time_s;
+        (t - before, t + after)
     }
 
     /// The note whose window holds `t`: the nearer of its neighbours in time.
