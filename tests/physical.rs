@@ -209,7 +209,7 @@ fn a_snapshot_of_the_body_plays_on_exactly_as_the_original() {
         c.period(&mut |_| {});
     }
     let snapshot = c.snapshot();
-    let mut run = |c: &mut Conductor| {
+    let run = |c: &mut Conductor| {
         let (mut strikes, mut tips) = (Vec::new(), Vec::new());
         while c.time_s() < 3.5 {
             c.period(&mut |s| strikes.push(s));
