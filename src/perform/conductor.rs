@@ -57,6 +57,10 @@ pub struct Conductor {
     aims: [Vector; 2],
 }
 
+fn lerp(a: &ArmTarget, b: &ArmTarget, x: f32) -> ArmTarget {
+    ArmTarget { tip: a.tip.lerp(b.tip, x), dir: a.dir.lerp(b.dir, x).normalize_or(Vector::Y) }
+}
+
 /// The task period (from the preroll's start) that ends at performance time `t`.
 pub fn period_index(t: f64) -> usize {
     ((t + PREROLL_S) * TASK_HZ).round().max(0.0) as usize
@@ -179,16 +183,31 @@ impl Conductor {
             self.targets.keep_out(target, sim[h], self.plates.iter().map(|&i| &surfaces[i]));
         }
         let offset = st.drummer.time_s() - st.t;
-        // Each hand's interpolation runs from `start` at step `k0` to `to` at the period's end.
+        // A stroke that bottoms out inside the period passes through its deepest target at
+        // that step (`via`), before heading for the period's end.
+        let via: [Option<(usize, ArmTarget)>; 2] = std::array::from_fn(|h| {
+            let tb = self.targets.bottom_within(h, st.t, t1)?;
+            let kv = (((tb - st.t) / DT_S as f64).round() as usize).clamp(1, STEPS_PER_PERIOD - 1);
+            let mut v = self.targets.at(h, tb, st.touched[h]);
+            v.tip += self.targets.offset(h, p1);
+            Some((kv, v))
+        });
+        // Each hand's interpolation runs from `start` at step `k0` to `to` at the period's end
+        // (through `via` while it lies ahead).
         let mut start = st.from;
         let mut k0 = [0usize; 2];
         for k in 0..STEPS_PER_PERIOD {
             let tg: [ArmTarget; 2] = std::array::from_fn(|h| {
-                let a = (k + 1 - k0[h]) as f32 / (STEPS_PER_PERIOD - k0[h]) as f32;
-                ArmTarget {
-                    tip: start[h].tip.lerp(to[h].tip, a),
-                    dir: start[h].dir.lerp(to[h].dir, a).normalize_or(Vector::Y),
-                }
+                let (end, k1) = match via[h] {
+                    Some((kv, v)) if k < kv && k0[h] < kv => (v, kv),
+                    Some((kv, v)) if k0[h] < kv => {
+                        // Past the bottom: from it to the period's end.
+                        let a = (k + 1 - kv) as f32 / (STEPS_PER_PERIOD - kv) as f32;
+                        return lerp(&v, &to[h], a);
+                    }
+                    _ => (to[h], STEPS_PER_PERIOD),
+                };
+                lerp(&start[h], &end, (k + 1 - k0[h]) as f32 / (k1 - k0[h]) as f32)
             });
             let before = st.touched;
             let (targets, piece_of, touched) = (&self.targets, &self.piece_of, &mut st.touched);

@@ -123,7 +123,7 @@ pub fn play_with(
             hands.truncate(m.frames);
             hihat_openness.truncate(m.hihat);
             (max_energy_j, finite) = (m.max_energy_j, m.finite);
-            rehearsal.restart(c.time_s());
+            rehearsal.restart(c.time_s(), strikes.len());
             period = 0;
         }
     }

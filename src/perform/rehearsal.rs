@@ -8,8 +8,10 @@
 //! for one off the point). The body goes back to a snapshot from before the stroke's
 //! preparation and plays on from there. Each note has a few attempts, and keeps its best.
 
-use super::conductor::{period_index, Conductor};
+use super::conductor::{period_index, Conductor, PREROLL_S};
+use super::matching::DOUBLE_TRIGGER_S;
 use crate::body::contacts::Strike;
+use crate::body::strokes::TASK_HZ;
 use crate::motion::plan::HandNote;
 use rapier3d::math::Vector;
 use std::collections::HashMap;
@@ -33,8 +35,8 @@ impl Default for RehearsalSettings {
     fn default() -> Self {
         RehearsalSettings {
             attempts: 4,
-            tolerance_s: 0.004,
-            aim_tolerance_m: 0.008,
+            tolerance_s: 0.006,
+            aim_tolerance_m: 0.010,
             settle_s: 0.030,
             snapshot_every: 4,
         }
@@ -86,6 +88,39 @@ pub fn judge(
     }
 }
 
+/// Contacts of stick `side` among `strikes` within `window` that play nothing: on another
+/// piece, or on the note's piece other than its first contact from `stroke_from` on (a
+/// bounce; the other surface of a rim shot's pair within the e-kit's double-trigger window
+/// is part of the stroke). Each as (time, surface).
+pub fn strays(
+    note: &HandNote,
+    side: usize,
+    strikes: &[Strike],
+    piece_of: &[usize],
+    window: (f64, f64),
+    stroke_from: f64,
+    verdict: Verdict,
+) -> Vec<(f64, usize)> {
+    // The judged contact is the stick's first on the note's piece within its stroke.
+    let landed = verdict != Verdict::Missing;
+    let mut first_surface = None;
+    let mut out = Vec::new();
+    for s in strikes.iter().filter(|s| s.side == side && s.time_s >= window.0 && s.time_s <= window.1) {
+        if piece_of[s.surface] == note.piece && landed && s.time_s >= stroke_from {
+            match first_surface {
+                None => {
+                    first_surface = Some((s.time_s, s.surface));
+                    continue;
+                }
+                Some((t0, k0)) if k0 != s.surface && s.time_s - t0 <= DOUBLE_TRIGGER_S => continue,
+                _ => {}
+            }
+        }
+        out.push((s.time_s, s.surface));
+    }
+    out
+}
+
 /// A contact this near the tip's end is the bead's: its point is where the tip was aimed.
 const BEAD_CONTACT_M: f32 = 0.012;
 
@@ -105,7 +140,9 @@ impl Verdict {
     pub fn contact_time(&self, note: &HandNote, settings: &RehearsalSettings) -> f64 {
         match self {
             Verdict::Off { error_s, .. } => note.time_s + error_s.min(settings.settle_s),
-            _ => note.time_s + settings.settle_s,
+            // None came: the approach until the planned touch is what to learn from (after
+            // it the plan rebounds while the late stick still falls).
+            _ => note.time_s + MISSING_LEARN_S,
         }
     }
 }
@@ -150,6 +187,16 @@ pub fn learn(
 /// from the last stroke's rebound), seconds.
 const LEARN_BACK_S: f64 = 0.032;
 
+/// A stray contact weighs as much as this many milliseconds off in a stroke's score.
+const STRAY_SCORE: f64 = 10.0;
+/// A stray contact lifts the stick off its surface by this much per attempt, over this long
+/// before it (m, s).
+const STRAY_LIFT_M: f32 = 0.006;
+const STRAY_LIFT_S: f64 = 0.04;
+
+/// A stroke that never landed learns until this long after its onset, seconds.
+const MISSING_LEARN_S: f64 = 0.004;
+
 /// Learning corrects at most this much of a stroke's approach before its onset, seconds
 /// (a long preparation's start hardly moves its contact).
 const APPROACH_S: f64 = 0.1;
@@ -162,11 +209,14 @@ pub struct Rehearsal {
     /// Per hand, the next note to judge.
     judged: [usize; 2],
     attempts: [Vec<u8>; 2],
-    /// (hand, note): the best score so far and the offsets that made it, from its window's
-    /// first period.
-    best: HashMap<(usize, usize), (f64, Vec<Vector>)>,
+    /// (hand, note): the best score so far and the offsets that made it, from a period on.
+    best: HashMap<(usize, usize), (f64, usize, Vec<Vector>)>,
     aims: [Vec<Vector>; 2],
     sims: [Vec<Vector>; 2],
+    /// Per hand, gaps between strokes (by the next note's index): stray contacts lifted.
+    gap_attempts: HashMap<(usize, usize), u8>,
+    /// Strikes already looked at for strays between strokes.
+    strays_seen: usize,
     /// Strokes played again, and notes that needed it.
     pub replays: usize,
 }
@@ -185,6 +235,8 @@ impl Rehearsal {
             best: HashMap::new(),
             aims: [log.clone(), log.clone()],
             sims: [log.clone(), log],
+            gap_attempts: HashMap::new(),
+            strays_seen: 0,
             replays: 0,
         }
     }
@@ -204,6 +256,10 @@ impl Rehearsal {
             (self.aims[h][p], self.sims[h][p]) = (aims[h], sims[h]);
         }
         let s = self.settings;
+        if let Some(back) = self.gap_strays(c, strikes) {
+            self.replays += 1;
+            return Some(back);
+        }
         for h in 0..2 {
             while let Some(n) = self.notes[h].get(self.judged[h]).filter(|n| n.time_s + s.settle_s <= t).copied() {
                 let k = self.judged[h];
@@ -213,45 +269,71 @@ impl Rehearsal {
                 }
                 let (from, to) = c.targets().planned().stroke_span(h, k);
                 // The stroke's contact falls between its neighbours' (the later half of the
-                // gap only up to when it is judged).
+                // gap only up to when it is judged); a stray contact is any since the hand's
+                // last note was judged.
                 let reach = (n.time_s - from, (to - n.time_s).min(s.settle_s));
-                let recent = &strikes[strikes.partition_point(|x| x.time_s < from)..];
+                let since = from;
+                let recent = &strikes[strikes.partition_point(|x| x.time_s < since)..];
                 let verdict = judge(&n, h, recent, c.piece_of(), reach, &s);
-                if verdict == Verdict::Good && !self.best.contains_key(&(h, k)) {
+                let surfaces = c.drummer().surfaces();
+                let strays: Vec<(f64, Vector)> =
+                    strays(&n, h, recent, c.piece_of(), (since, n.time_s + reach.1), from, verdict)
+                        .into_iter()
+                        .map(|(ts, k)| (ts, surfaces[k].normal))
+                        .collect();
+                let good = verdict == Verdict::Good && strays.is_empty();
+                if good && !self.best.contains_key(&(h, k)) {
                     continue;
                 }
-                // The window a correction of this stroke may touch: its approach.
-                let start = from.max(n.time_s - APPROACH_S) - LEARN_BACK_S;
+                // The window a correction of this stroke may touch: its approach, the time
+                // before its strays, and what follows until it is judged.
+                let approach = from.max(n.time_s - APPROACH_S) - LEARN_BACK_S;
+                let start = strays.iter().map(|(ts, _)| ts - STRAY_LIFT_S).fold(approach, f64::min);
                 let (p0, p1) = (period_index(start), period_index(n.time_s + s.settle_s).min(p));
-                let score = verdict.score();
+                let score = verdict.score() + STRAY_SCORE * strays.len() as f64;
                 let periods = self.aims[h].len();
                 let offsets = c.targets_mut().offsets_mut(h, periods);
-                let best = self.best.entry((h, k)).or_insert((f64::INFINITY, Vec::new()));
+                let best = self.best.entry((h, k)).or_insert((f64::INFINITY, 0, Vec::new()));
                 if score < best.0 {
-                    *best = (score, offsets[p0..=p1].to_vec());
+                    *best = (score, p0, offsets[p0..=p1].to_vec());
                 }
-                if verdict == Verdict::Good {
+                if good {
                     continue;
                 }
                 self.attempts[h][k] += 1;
                 if self.attempts[h][k] > s.attempts {
-                    if score <= best.0 || best.1.len() != p1 + 1 - p0 {
+                    if score <= best.0 {
                         continue;
                     }
                     // Out of attempts: the best take again, for good.
-                    offsets[p0..=p1].copy_from_slice(&best.1);
+                    let (b0, ref b) = (best.1, &best.2);
+                    offsets[b0..b0 + b.len()].copy_from_slice(b);
+                    self.replays += 1;
+                    return Some(start.min(b0 as f64 / TASK_HZ - PREROLL_S));
                 } else {
-                    let contact = verdict.contact_time(&n, &s);
-                    let learn_from = period_index(start.max(contact - APPROACH_S).min(contact - LEARN_BACK_S));
-                    learn(
-                        offsets,
-                        verdict,
-                        &n,
-                        learn_from..=period_index(contact).min(p),
-                        &self.aims[h],
-                        &self.sims[h],
-                        s.tolerance_s,
-                    );
+                    if verdict != Verdict::Good {
+                        let contact = verdict.contact_time(&n, &s);
+                        let learn_from = period_index(approach.max(contact - APPROACH_S));
+                        let (aims, sims) = (&self.aims[h], &self.sims[h]);
+                        learn(
+                            offsets,
+                            verdict,
+                            &n,
+                            learn_from..=period_index(contact).min(p1),
+                            aims,
+                            sims,
+                            s.tolerance_s,
+                        );
+                    }
+                    // Lift the stick off what it touched uninvited, over the time before.
+                    for &(ts, normal) in &strays {
+                        let q1 = period_index(ts).min(p1);
+                        let q0 = period_index(ts - STRAY_LIFT_S).clamp(p0, q1);
+                        for q in q0..=q1 {
+                            let ramp = ((q - q0 + 1) as f32 / LEARN_TAPER).min(1.0);
+                            offsets[q] = (offsets[q] + normal * (STRAY_LIFT_M * ramp)).clamp_length_max(MAX_OFFSET_M);
+                        }
+                    }
                 }
                 self.replays += 1;
                 return Some(start);
@@ -260,10 +342,46 @@ impl Rehearsal {
         None
     }
 
-    /// After going back to a snapshot at `t`: every note settling later is judged again.
-    pub fn restart(&mut self, t: f64) {
+    /// Contacts since the last look that fall between a hand's strokes (after one is judged,
+    /// before the next one's preparation): each lifts its stick off that surface over the
+    /// time before it, a few times per gap at most. Returns the time to go back to.
+    fn gap_strays(&mut self, c: &mut Conductor, strikes: &[Strike]) -> Option<f64> {
+        let settle = self.settings.settle_s;
+        let fresh = &strikes[self.strays_seen.min(strikes.len())..];
+        self.strays_seen = strikes.len();
+        for x in fresh.iter().filter(|x| x.side < 2) {
+            let (h, ns) = (x.side, &self.notes[x.side]);
+            // The gap before note i: after note i - 1 settled, before note i's preparation.
+            let i = ns.partition_point(|n| n.time_s + settle < x.time_s);
+            let after_last = i.checked_sub(1).is_none_or(|j| ns[j].time_s + settle < x.time_s);
+            let before_next = i >= ns.len() || x.time_s < c.targets().planned().stroke_span(h, i).0;
+            if !(after_last && before_next) {
+                continue;
+            }
+            let tries = self.gap_attempts.entry((h, i)).or_insert(0);
+            if *tries >= self.settings.attempts {
+                continue;
+            }
+            *tries += 1;
+            let normal = c.drummer().surfaces()[x.surface].normal;
+            let periods = self.aims[h].len();
+            let offsets = c.targets_mut().offsets_mut(h, periods);
+            let (q0, q1) = (period_index(x.time_s - STRAY_LIFT_S), period_index(x.time_s).min(periods - 1));
+            for q in q0..=q1 {
+                let ramp = ((q - q0 + 1) as f32 / LEARN_TAPER).min(1.0);
+                offsets[q] = (offsets[q] + normal * (STRAY_LIFT_M * ramp)).clamp_length_max(MAX_OFFSET_M);
+            }
+            return Some(x.time_s - STRAY_LIFT_S);
+        }
+        None
+    }
+
+    /// After going back to a snapshot at `t` (keeping the first `strikes_kept` strikes): every
+    /// note settling later is judged again.
+    pub fn restart(&mut self, t: f64, strikes_kept: usize) {
         for h in 0..2 {
             self.judged[h] = self.notes[h].partition_point(|n| n.time_s + self.settings.settle_s <= t);
         }
+        self.strays_seen = strikes_kept;
     }
 }

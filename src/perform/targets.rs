@@ -27,8 +27,8 @@ pub struct TargetSettings {
     pub plate_keepout_depth_m: f32,
     /// Height the bead keeps above a piece it is not striking, m.
     pub clearance_m: f32,
-    /// How far below a surface a target is still raised by the clearance (deeper ones are
-    /// inside a drum, which the body's own clamp handles), m.
+    /// How far below a surface a target is still raised by the clearance, m, at least (a
+    /// drum's whole depth: a target inside its shell is raised out).
     pub clearance_depth_m: f32,
     /// The struck piece is exempt from the clearance this long before the onset and after.
     pub guard_before_s: f64,
@@ -96,6 +96,17 @@ impl TipTargets {
         ArmTarget { tip: Vector::from(tip), dir }
     }
 
+    /// When the stroke of `hand` bottoms out (its press is deepest: the onset plus the time
+    /// the press takes at the stroke's speed) between `t0` and `t1`, that time: a fast
+    /// stroke's whole press fits inside one task period, and a target interpolated between
+    /// the period's ends would never reach down to it.
+    pub fn bottom_within(&self, hand: usize, t0: f64, t1: f64) -> Option<f64> {
+        let n = self.planned.note_near(hand, 0.5 * (t0 + t1))?;
+        // A hair before the press ends (at its end the target turns to the rebound).
+        let tb = n.time_s + (self.settings.press_m / n.speed_mps.max(0.1)) as f64 - 1e-5;
+        (tb > t0 && tb < t1).then_some(tb)
+    }
+
     /// Keep `target` of `hand` at `t` clear of every surface its stroke is not striking: a
     /// target over a piece (within its radius and the bead's) lower than the bead plus
     /// [`TargetSettings::clearance_m`] above it is raised to that height. The piece of the
@@ -115,7 +126,9 @@ impl TipTargets {
                 }
             }
             let h = surface.height(target.tip);
-            if h >= floor || h < -s.clearance_depth_m {
+            // Below a drum's head is inside its shell: out. Deep below a cymbal is under
+            // it, which the keep-out handles.
+            if h >= floor || h < -s.clearance_depth_m.max(surface.depth_m) {
                 continue;
             }
             let planar = target.tip - surface.center - surface.normal * h;
