@@ -201,6 +201,15 @@ const MISSING_LEARN_S: f64 = 0.004;
 /// (a long preparation's start hardly moves its contact).
 const APPROACH_S: f64 = 0.1;
 
+/// Lift the stick off a surface of `normal` over `offsets` (the periods before a stray
+/// contact), easing in.
+fn lift(offsets: &mut [Vector], normal: Vector) {
+    for (i, o) in offsets.iter_mut().enumerate() {
+        let ramp = ((i + 1) as f32 / LEARN_TAPER).min(1.0);
+        *o = (*o + normal * (STRAY_LIFT_M * ramp)).clamp_length_max(MAX_OFFSET_M);
+    }
+}
+
 /// The rehearsal's bookkeeping over a song: where the plan wanted the tips and where they
 /// were at every task period, which notes are judged, each note's attempts and best take.
 pub struct Rehearsal {
@@ -306,7 +315,7 @@ impl Rehearsal {
                         continue;
                     }
                     // Out of attempts: the best take again, for good.
-                    let (b0, ref b) = (best.1, &best.2);
+                    let (b0, b) = (best.1, &best.2);
                     offsets[b0..b0 + b.len()].copy_from_slice(b);
                     self.replays += 1;
                     return Some(start.min(b0 as f64 / TASK_HZ - PREROLL_S));
@@ -328,11 +337,7 @@ impl Rehearsal {
                     // Lift the stick off what it touched uninvited, over the time before.
                     for &(ts, normal) in &strays {
                         let q1 = period_index(ts).min(p1);
-                        let q0 = period_index(ts - STRAY_LIFT_S).clamp(p0, q1);
-                        for q in q0..=q1 {
-                            let ramp = ((q - q0 + 1) as f32 / LEARN_TAPER).min(1.0);
-                            offsets[q] = (offsets[q] + normal * (STRAY_LIFT_M * ramp)).clamp_length_max(MAX_OFFSET_M);
-                        }
+                        lift(&mut offsets[period_index(ts - STRAY_LIFT_S).clamp(p0, q1)..=q1], normal);
                     }
                 }
                 self.replays += 1;
@@ -366,11 +371,8 @@ impl Rehearsal {
             let normal = c.drummer().surfaces()[x.surface].normal;
             let periods = self.aims[h].len();
             let offsets = c.targets_mut().offsets_mut(h, periods);
-            let (q0, q1) = (period_index(x.time_s - STRAY_LIFT_S), period_index(x.time_s).min(periods - 1));
-            for q in q0..=q1 {
-                let ramp = ((q - q0 + 1) as f32 / LEARN_TAPER).min(1.0);
-                offsets[q] = (offsets[q] + normal * (STRAY_LIFT_M * ramp)).clamp_length_max(MAX_OFFSET_M);
-            }
+            let q1 = period_index(x.time_s).min(periods - 1);
+            lift(&mut offsets[period_index(x.time_s - STRAY_LIFT_S).min(q1)..=q1], normal);
             return Some(x.time_s - STRAY_LIFT_S);
         }
         None
