@@ -161,7 +161,8 @@ const LEARN_TAPER: f32 = 5.0;
 /// contact), each period's target offset takes a share of the tracking error
 /// (`aims - sims`, what the plan wanted minus where the simulated tip was) a little later.
 /// A stroke off in time (by more than `tolerance_s`) learns along the surface's normal
-/// only; one on time but off the strike point, within the surface's plane only.
+/// only; one on time but off the strike point, within the surface's plane only; one that
+/// never landed, both.
 pub fn learn(
     offsets: &mut [Vector],
     verdict: Verdict,
@@ -177,7 +178,12 @@ pub fn learn(
     for q in periods {
         let r = (q + LEARN_LEAD).min(p1);
         let e = aims[r] - sims[r];
-        let e = if timing { n * e.dot(n) } else { e - n * e.dot(n) };
+        let e = match verdict {
+            // Nothing landed: wherever the tip was off, in height or across the surface.
+            Verdict::Missing => e,
+            _ if timing => n * e.dot(n),
+            _ => e - n * e.dot(n),
+        };
         let taper = ((q - p0) as f32 / LEARN_TAPER).min(1.0);
         offsets[q] = (offsets[q] + e * (LEARN_GAIN * taper)).clamp_length_max(MAX_OFFSET_M);
     }

@@ -19,8 +19,10 @@ use rapier3d::math::Vector;
 /// How the targets are made.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TargetSettings {
-    /// How far past the touch the target presses into the surface, m.
+    /// How far past the touch the target presses into the surface, m, and how long it holds
+    /// there for a stick that has not touched yet, s.
     pub press_m: f32,
+    pub press_hold_s: f64,
     /// Clearance kept around a plate's edge while the tip is below its plane, m.
     pub plate_clearance_m: f32,
     /// How far below a plate's plane the keep-out reaches, m.
@@ -39,6 +41,7 @@ impl Default for TargetSettings {
     fn default() -> Self {
         TargetSettings {
             press_m: 0.010,
+            press_hold_s: 0.005,
             plate_clearance_m: 0.03,
             plate_keepout_depth_m: 0.15,
             clearance_m: 0.015,
@@ -89,7 +92,8 @@ impl TipTargets {
     /// The target of `hand` at `t` (before the clearance and keep-out, which need the body's
     /// state). `contact`: (a note's onset, when the simulated stick touched its piece).
     pub fn at(&self, hand: usize, t: f64, contact: Option<(f64, f64)>) -> ArmTarget {
-        let tip = self.planned.strike_tip(hand, t, self.bead_m, self.settings.press_m, contact);
+        let press = (self.settings.press_m, self.settings.press_hold_s);
+        let tip = self.planned.strike_tip(hand, t, self.bead_m, press, contact);
         let pose = self.planned.pose(hand, t);
         let y = pose.apply([0.0, 1.0, 0.0]);
         let dir = Vector::new(y[0] - pose.pos[0], y[1] - pose.pos[1], y[2] - pose.pos[2]).normalize_or(Vector::Y);

@@ -223,12 +223,22 @@ impl PlannedHands {
     /// carried on down at the stroke's speed, up to `press_m` into the surface (the drum
     /// stops the stick; a target pressing into it is what makes a physical impact at that
     /// speed), until the stick is felt to touch: `contact` is (the note's onset, when the
-    /// simulated stick touched that note's piece). From the touch, or from the end of the
-    /// press when none came, the tip follows the planned rebound. With `dwell_s` 0 in the
+    /// simulated stick touched that note's piece). `press` is that depth and how long the
+    /// target holds there for a stick that has not touched yet (a fast stroke's press is
+    /// over in a millisecond, less than the tracking's lag). From the touch, or from the end
+    /// of the hold when none came, the tip follows the planned rebound. With `dwell_s` 0 in the
     /// settings the planned touch is at the onset.
-    pub fn strike_tip(&self, hand: usize, t: f64, bead_m: f32, press_m: f32, contact: Option<(f64, f64)>) -> [f32; 3] {
+    pub fn strike_tip(
+        &self,
+        hand: usize,
+        t: f64,
+        bead_m: f32,
+        press: (f32, f64),
+        contact: Option<(f64, f64)>,
+    ) -> [f32; 3] {
         let Some(k) = self.nearest(hand, t) else { return self.tip(hand, t) };
         let n = self.notes[hand][k].0;
+        let (press_m, hold_s) = press;
         let press_s = (press_m / n.speed_mps.max(0.1)) as f64;
         let dt = t - n.time_s;
         let touched = contact.filter(|&(onset, _)| onset == n.time_s).map(|(_, tc)| tc);
@@ -236,7 +246,8 @@ impl PlannedHands {
             Some(tc) if t >= tc => (n.time_s + (t - tc), 0.0),
             _ if dt < 0.0 => (t, 0.0),
             _ if dt < press_s => (n.time_s, n.speed_mps * dt as f32),
-            _ => (t - press_s, 0.0),
+            _ if dt < press_s + hold_s => (n.time_s, press_m),
+            _ => (t - press_s - hold_s, 0.0),
         };
         let p = self.tip(hand, t_plan);
         let (_, w) = self.stroke(hand, k, t_plan);
