@@ -54,7 +54,7 @@ fn main() {
         let sd = (errs.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / errs.len().max(1) as f64).sqrt();
         if std::env::var_os("JSON").is_none() {
             println!(
-            "{take}: {:.1} s in {wall:.1} s ({:.1}x real time); notes {} hit {:.2} % (kick {}/{}, hi-hat pedal {}/{}), contacts {} spurious {} ({:.2} %); timing {mean:+.2} / sd {sd:.2} ms; {} notes rehearsed, {} replays; sank {:.1} mm, energy {:.0} J, finite {}",
+            "{take}: {:.1} s in {wall:.1} s ({:.1}x real time); notes {} hit {:.2} % (kick {}/{}, hi-hat pedal {}/{}), contacts {} spurious {} ({:.2} %); timing {mean:+.2} / sd {sd:.2} ms; {} notes rehearsed, {} replays {:?}; sank {:.1} mm, energy {:.0} J, finite {}",
             perf.notes_end_s,
             perf.notes_end_s / wall,
             hand.len(),
@@ -68,6 +68,7 @@ fn main() {
             100.0 * spurious.len() as f64 / of.len().max(1) as f64,
             take_.rehearsed,
             take_.replays,
+            take_.reasons,
             take_.max_penetration_m * 1e3,
             take_.max_energy_j,
             take_.finite
@@ -95,7 +96,7 @@ fn main() {
                 "take": take, "seconds": perf.notes_end_s, "wall_s": wall, "notes": hand.len(), "hit": hit,
                 "contacts": of.len(), "spurious": spurious.len(), "timing_ms": errs,
                 "vel_speed": vel_speed, "ipd_mm": ipd_mm, "sank_mm": take_.max_penetration_m * 1e3,
-                "energy_j": take_.max_energy_j, "replays": take_.replays, "rehearsed": take_.rehearsed, "finite": take_.finite, "deepest_at": take_.deepest_at,
+                "energy_j": take_.max_energy_j, "replays": take_.replays, "reasons": take_.reasons, "rehearsed": take_.rehearsed, "finite": take_.finite, "deepest_at": take_.deepest_at,
             });
             println!("{line}");
             continue;

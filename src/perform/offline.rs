@@ -46,6 +46,8 @@ pub struct PhysicalTake {
     /// Strokes the rehearsal played again, and the notes that needed it.
     pub replays: usize,
     pub rehearsed: usize,
+    /// Why strokes were played again ([`super::rehearsal::Rehearsal::reasons`]).
+    pub reasons: [usize; 6],
 }
 
 /// Play `perf` as the motion stage `planned` it on `kit`, from the preroll until `end_s`
@@ -153,6 +155,7 @@ pub fn play_with(
         finite,
         steps: c.drummer().steps(),
         replays: rehearsal.replays,
+        reasons: rehearsal.reasons,
         rehearsed: rehearsal.rehearsed(),
     })
 }

@@ -56,6 +56,22 @@ pub enum Verdict {
     Missing,
 }
 
+/// The contact a note is judged by: stick `side`'s on the note's piece (or its hoop)
+/// nearest the onset within `reach_s` before and after it.
+fn judged_contact<'a>(
+    note: &HandNote,
+    side: usize,
+    strikes: &'a [Strike],
+    piece_of: &[usize],
+    reach_s: (f64, f64),
+) -> Option<&'a Strike> {
+    strikes
+        .iter()
+        .filter(|s| s.side == side && piece_of[s.surface] == note.piece)
+        .filter(|s| s.time_s >= note.time_s - reach_s.0 && s.time_s <= note.time_s + reach_s.1)
+        .min_by(|a, b| (a.time_s - note.time_s).abs().total_cmp(&(b.time_s - note.time_s).abs()))
+}
+
 /// Judge note `note` of hand `side` from the stick's `strikes` (any order), `piece_of`
 /// mapping surfaces to kit pieces. Only contacts within `reach_s` of the onset count (half
 /// the time to the hand's neighbouring notes, so a neighbour's contact is not this one's).
@@ -67,12 +83,7 @@ pub fn judge(
     reach_s: (f64, f64),
     settings: &RehearsalSettings,
 ) -> Verdict {
-    let first = strikes
-        .iter()
-        .filter(|s| s.side == side && piece_of[s.surface] == note.piece)
-        .filter(|s| s.time_s >= note.time_s - reach_s.0 && s.time_s <= note.time_s + reach_s.1)
-        .min_by(|a, b| a.time_s.total_cmp(&b.time_s));
-    let Some(s) = first else { return Verdict::Missing };
+    let Some(s) = judged_contact(note, side, strikes, piece_of, reach_s) else { return Verdict::Missing };
     let error_s = s.time_s - note.time_s;
     let n = Vector::from(note.normal);
     let miss_m = if s.from_tip_m < BEAD_CONTACT_M && piece_of[s.surface] == s.surface {
@@ -88,37 +99,31 @@ pub fn judge(
     }
 }
 
-/// Contacts of stick `side` among `strikes` within `window` that play nothing: on another
-/// piece, or on the note's piece other than its first contact from `stroke_from` on (a
-/// bounce; the other surface of a rim shot's pair within the e-kit's double-trigger window
-/// is part of the stroke). Each as (time, surface).
+/// Contacts of stick `side` among `strikes` (from the stroke's start) until `until` that
+/// play nothing: on another piece, or on the note's piece other than the contact it is
+/// judged by (a bounce, or an early graze). Each as (time, surface).
 pub fn strays(
     note: &HandNote,
     side: usize,
     strikes: &[Strike],
     piece_of: &[usize],
-    window: (f64, f64),
-    stroke_from: f64,
-    verdict: Verdict,
+    until: f64,
+    reach_s: (f64, f64),
 ) -> Vec<(f64, usize)> {
-    // The judged contact is the stick's first on the note's piece within its stroke.
-    let landed = verdict != Verdict::Missing;
-    let mut first_surface = None;
-    let mut out = Vec::new();
-    for s in strikes.iter().filter(|s| s.side == side && s.time_s >= window.0 && s.time_s <= window.1) {
-        if piece_of[s.surface] == note.piece && landed && s.time_s >= stroke_from {
-            match first_surface {
-                None => {
-                    first_surface = Some((s.time_s, s.surface));
-                    continue;
-                }
-                Some((t0, k0)) if k0 != s.surface && s.time_s - t0 <= DOUBLE_TRIGGER_S => continue,
-                _ => {}
+    let judged = judged_contact(note, side, strikes, piece_of, reach_s).map(|j| (j.time_s, j.surface));
+    strikes
+        .iter()
+        .filter(|s| s.side == side && s.time_s <= until)
+        .filter(|s| match judged {
+            // The judged contact, and its pair on the piece's other surface (a rim shot's head
+            // and hoop) within the e-kit's double-trigger window, are the stroke.
+            Some((t0, k0)) if piece_of[s.surface] == note.piece => {
+                !(s.time_s == t0 || s.surface != k0 && (s.time_s - t0).abs() <= DOUBLE_TRIGGER_S)
             }
-        }
-        out.push((s.time_s, s.surface));
-    }
-    out
+            _ => true,
+        })
+        .map(|s| (s.time_s, s.surface))
+        .collect()
 }
 
 /// A contact this near the tip's end is the bead's: its point is where the tip was aimed.
@@ -200,6 +205,11 @@ const STRAY_SCORE: f64 = 10.0;
 const STRAY_LIFT_M: f32 = 0.006;
 const STRAY_LIFT_S: f64 = 0.04;
 
+/// Share of a stroke's miss across its surface that corrects the hand's aim on that piece,
+/// and the largest correction, m.
+const BIAS_GAIN: f32 = 0.4;
+const MAX_BIAS_M: f32 = 0.04;
+
 /// A stroke that never landed learns until this long after its onset, seconds.
 const MISSING_LEARN_S: f64 = 0.004;
 
@@ -224,6 +234,8 @@ pub struct Rehearsal {
     /// Per hand, the next note to judge.
     judged: [usize; 2],
     attempts: [Vec<u8>; 2],
+    /// Per hand, the notes whose first take has taught the hand's aim on their piece.
+    biased: [Vec<bool>; 2],
     /// (hand, note): the best score so far and the offsets that made it, from a period on.
     best: HashMap<(usize, usize), (f64, usize, Vec<Vector>)>,
     aims: [Vec<Vector>; 2],
@@ -234,6 +246,9 @@ pub struct Rehearsal {
     strays_seen: usize,
     /// Strokes played again, and notes that needed it.
     pub replays: usize,
+    /// Why: [off in time, off the point, never landed, strays only, the best take again,
+    /// strays between strokes].
+    pub reasons: [usize; 6],
 }
 
 impl Rehearsal {
@@ -241,18 +256,21 @@ impl Rehearsal {
     pub fn new(c: &Conductor, periods: usize, settings: RehearsalSettings) -> Rehearsal {
         let notes: [Vec<HandNote>; 2] = [0, 1].map(|h| c.targets().planned().notes(h).copied().collect());
         let attempts = [vec![0; notes[0].len()], vec![0; notes[1].len()]];
+        let biased = [vec![false; notes[0].len()], vec![false; notes[1].len()]];
         let log = vec![Vector::ZERO; periods];
         Rehearsal {
             settings,
             notes,
             judged: [0; 2],
             attempts,
+            biased,
             best: HashMap::new(),
             aims: [log.clone(), log.clone()],
             sims: [log.clone(), log],
             gap_attempts: HashMap::new(),
             strays_seen: 0,
             replays: 0,
+            reasons: [0; 6],
         }
     }
 
@@ -273,6 +291,7 @@ impl Rehearsal {
         let s = self.settings;
         if let Some(back) = self.gap_strays(c, strikes) {
             self.replays += 1;
+            self.reasons[5] += 1;
             return Some(back);
         }
         for h in 0..2 {
@@ -291,12 +310,31 @@ impl Rehearsal {
                 let recent = &strikes[strikes.partition_point(|x| x.time_s < since)..];
                 let verdict = judge(&n, h, recent, c.piece_of(), reach, &s);
                 let surfaces = c.drummer().surfaces();
-                let strays: Vec<(f64, Vector)> =
-                    strays(&n, h, recent, c.piece_of(), (since, n.time_s + reach.1), from, verdict)
-                        .into_iter()
-                        .map(|(ts, k)| (ts, surfaces[k].normal))
-                        .collect();
+                let strays: Vec<(f64, Vector)> = strays(&n, h, recent, c.piece_of(), n.time_s + reach.1, reach)
+                    .into_iter()
+                    .map(|(ts, k)| (ts, surfaces[k].normal))
+                    .collect();
                 let good = verdict == Verdict::Good && strays.is_empty();
+                if std::env::var_os("RTRACE").is_some() && !good {
+                    eprintln!(
+                        "h{h} k{k} {:.3} p{} v{} att {} {verdict:?} strays {:?}",
+                        n.time_s,
+                        n.piece,
+                        n.velocity,
+                        self.attempts[h][k],
+                        strays.iter().map(|x| x.0).collect::<Vec<_>>()
+                    );
+                }
+                if !self.biased[h][k] {
+                    // The hand's aim on this piece learns from every stroke's first take.
+                    self.biased[h][k] = true;
+                    if let Verdict::Off { error_s, miss_m } = verdict {
+                        if error_s.abs() <= 2.0 * s.tolerance_s {
+                            let b = c.targets_mut().bias_mut(h, n.piece);
+                            *b = (*b - miss_m * BIAS_GAIN).clamp_length_max(MAX_BIAS_M);
+                        }
+                    }
+                }
                 if good && !self.best.contains_key(&(h, k)) {
                     continue;
                 }
@@ -324,21 +362,22 @@ impl Rehearsal {
                     let (b0, b) = (best.1, &best.2);
                     offsets[b0..b0 + b.len()].copy_from_slice(b);
                     self.replays += 1;
+                    self.reasons[4] += 1;
                     return Some(start.min(b0 as f64 / TASK_HZ - PREROLL_S));
                 } else {
+                    let mut changed = !strays.is_empty();
                     if verdict != Verdict::Good {
                         let contact = verdict.contact_time(&n, &s);
-                        let learn_from = period_index(approach.max(contact - APPROACH_S));
+                        let periods = period_index(approach.max(contact - APPROACH_S))..=period_index(contact).min(p1);
+                        changed |= !periods.is_empty();
                         let (aims, sims) = (&self.aims[h], &self.sims[h]);
-                        learn(
-                            offsets,
-                            verdict,
-                            &n,
-                            learn_from..=period_index(contact).min(p1),
-                            aims,
-                            sims,
-                            s.tolerance_s,
-                        );
+                        learn(offsets, verdict, &n, periods, aims, sims, s.tolerance_s);
+                    }
+                    if !changed {
+                        // Nothing to learn from (a contact long before the stroke): playing
+                        // again would play the same.
+                        self.attempts[h][k] = s.attempts + 1;
+                        continue;
                     }
                     // Lift the stick off what it touched uninvited, over the time before.
                     for &(ts, normal) in &strays {
@@ -347,6 +386,12 @@ impl Rehearsal {
                     }
                 }
                 self.replays += 1;
+                self.reasons[match verdict {
+                    Verdict::Off { error_s, .. } if error_s.abs() > s.tolerance_s => 0,
+                    Verdict::Off { .. } => 1,
+                    Verdict::Missing => 2,
+                    Verdict::Good => 3,
+                }] += 1;
                 return Some(start);
             }
         }

@@ -60,6 +60,9 @@ pub struct TipTargets {
     /// Per hand, the rehearsal's learned offset of the target at each task period (from
     /// the preroll's start; empty until the rehearsal writes one).
     offsets: [Vec<Vector>; 2],
+    /// Per hand and kit piece, a learned aim correction applied to every stroke there (the
+    /// rehearsal's feedforward: a hand that lands short on a piece lands short every time).
+    bias: [Vec<Vector>; 2],
 }
 
 impl TipTargets {
@@ -67,7 +70,9 @@ impl TipTargets {
     /// dwell), aimed for a bead of radius `bead_m`.
     pub fn new(planned: &PlannedHands, bead_m: f32, settings: TargetSettings) -> TipTargets {
         let planned = planned.with_settings(StrokeSettings { dwell_s: 0.0, ..StrokeSettings::default() });
-        TipTargets { planned, bead_m, settings, offsets: [Vec::new(), Vec::new()] }
+        let pieces = [0, 1].into_iter().flat_map(|h| planned.notes(h).map(|n| n.piece + 1)).max().unwrap_or(0);
+        let bias = [vec![Vector::ZERO; pieces], vec![Vector::ZERO; pieces]];
+        TipTargets { planned, bead_m, settings, offsets: [Vec::new(), Vec::new()], bias }
     }
 
     /// The plan the targets follow.
@@ -89,15 +94,28 @@ impl TipTargets {
         o
     }
 
+    /// The learned aim correction of `hand`'s strokes on kit piece `piece`.
+    pub fn bias_mut(&mut self, hand: usize, piece: usize) -> &mut Vector {
+        &mut self.bias[hand][piece]
+    }
+
     /// The target of `hand` at `t` (before the clearance and keep-out, which need the body's
     /// state). `contact`: (a note's onset, when the simulated stick touched its piece).
     pub fn at(&self, hand: usize, t: f64, contact: Option<(f64, f64)>) -> ArmTarget {
         let press = (self.settings.press_m, self.settings.press_hold_s);
-        let tip = self.planned.strike_tip(hand, t, self.bead_m, press, contact);
+        let mut tip = Vector::from(self.planned.strike_tip(hand, t, self.bead_m, press, contact));
+        if let Some(k) = self.planned.note_index(hand, t) {
+            // The piece's aim correction, whole at the hit, easing out to the stroke's edges.
+            let n = self.planned.note(hand, k);
+            let (from, to) = self.planned.stroke_span(hand, k);
+            let x = if t < n.time_s { (n.time_s - t) / (n.time_s - from) } else { (t - n.time_s) / (to - n.time_s) };
+            let w = 0.5 * (1.0 + (std::f64::consts::PI * x.clamp(0.0, 1.0)).cos());
+            tip += self.bias[hand][n.piece] * w as f32;
+        }
         let pose = self.planned.pose(hand, t);
         let y = pose.apply([0.0, 1.0, 0.0]);
         let dir = Vector::new(y[0] - pose.pos[0], y[1] - pose.pos[1], y[2] - pose.pos[2]).normalize_or(Vector::Y);
-        ArmTarget { tip: Vector::from(tip), dir }
+        ArmTarget { tip, dir }
     }
 
     /// When the stroke of `hand` bottoms out (its press is deepest: the onset plus the time

@@ -122,6 +122,11 @@ pub fn plan_hands(
 }
 
 impl PlannedHands {
+    /// The index among `hand`'s notes of the one whose stroke holds `t`.
+    pub fn note_index(&self, hand: usize, t: f64) -> Option<usize> {
+        self.nearest(hand, t)
+    }
+
     /// The note of `hand` nearest `t` (the one whose stroke holds `t`).
     pub fn note_near(&self, hand: usize, t: f64) -> Option<&HandNote> {
         self.nearest(hand, t).map(|k| &self.notes[hand][k].0)
@@ -130,6 +135,11 @@ impl PlannedHands {
     /// The same plan with other stroke settings (the offsets onto the strike points stay).
     pub fn with_settings(&self, settings: StrokeSettings) -> PlannedHands {
         PlannedHands { settings, ..self.clone() }
+    }
+
+    /// Note `k` of `hand`.
+    pub fn note(&self, hand: usize, k: usize) -> &HandNote {
+        &self.notes[hand][k].0
     }
 
     /// The notes each hand plays.
