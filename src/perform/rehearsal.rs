@@ -315,16 +315,6 @@ impl Rehearsal {
                     .map(|(ts, k)| (ts, surfaces[k].normal))
                     .collect();
                 let good = verdict == Verdict::Good && strays.is_empty();
-                if std::env::var_os("RTRACE").is_some() && !good {
-                    eprintln!(
-                        "h{h} k{k} {:.3} p{} v{} att {} {verdict:?} strays {:?}",
-                        n.time_s,
-                        n.piece,
-                        n.velocity,
-                        self.attempts[h][k],
-                        strays.iter().map(|x| x.0).collect::<Vec<_>>()
-                    );
-                }
                 if !self.biased[h][k] {
                     // The hand's aim on this piece learns from every stroke's first take.
                     self.biased[h][k] = true;
