@@ -72,6 +72,27 @@ fn judged_contact<'a>(
         .min_by(|a, b| (a.time_s - note.time_s).abs().total_cmp(&(b.time_s - note.time_s).abs()))
 }
 
+/// The judged contact's time error (contact - onset, seconds) and how far off the strike
+/// point it was in the surface's plane (world axes, m; zero when the contact was not the
+/// tip's bead on the note's own surface).
+fn contact_error(
+    note: &HandNote,
+    side: usize,
+    strikes: &[Strike],
+    piece_of: &[usize],
+    reach_s: (f64, f64),
+) -> Option<(f64, Vector)> {
+    let s = judged_contact(note, side, strikes, piece_of, reach_s)?;
+    let n = Vector::from(note.normal);
+    let miss_m = if s.from_tip_m < BEAD_CONTACT_M && piece_of[s.surface] == s.surface {
+        let d = s.point - Vector::from(note.point);
+        d - n * d.dot(n)
+    } else {
+        Vector::ZERO
+    };
+    Some((s.time_s - note.time_s, miss_m))
+}
+
 /// Judge note `note` of hand `side` from the stick's `strikes` (any order), `piece_of`
 /// mapping surfaces to kit pieces. Only contacts within `reach_s` of the onset count (half
 /// the time to the hand's neighbouring notes, so a neighbour's contact is not this one's).
@@ -83,14 +104,8 @@ pub fn judge(
     reach_s: (f64, f64),
     settings: &RehearsalSettings,
 ) -> Verdict {
-    let Some(s) = judged_contact(note, side, strikes, piece_of, reach_s) else { return Verdict::Missing };
-    let error_s = s.time_s - note.time_s;
-    let n = Vector::from(note.normal);
-    let miss_m = if s.from_tip_m < BEAD_CONTACT_M && piece_of[s.surface] == s.surface {
-        let d = s.point - Vector::from(note.point);
-        d - n * d.dot(n)
-    } else {
-        Vector::ZERO
+    let Some((error_s, miss_m)) = contact_error(note, side, strikes, piece_of, reach_s) else {
+        return Verdict::Missing;
     };
     if error_s.abs() <= settings.tolerance_s && miss_m.length() <= settings.aim_tolerance_m {
         Verdict::Good
@@ -207,7 +222,7 @@ const STRAY_LIFT_S: f64 = 0.04;
 
 /// Share of a stroke's miss across its surface that corrects the hand's aim on that piece,
 /// and the largest correction, m.
-const BIAS_GAIN: f32 = 0.4;
+const BIAS_GAIN: f32 = 0.3;
 const MAX_BIAS_M: f32 = 0.04;
 
 /// A stroke that never landed learns until this long after its onset, seconds.
@@ -318,7 +333,7 @@ impl Rehearsal {
                 if !self.biased[h][k] {
                     // The hand's aim on this piece learns from every stroke's first take.
                     self.biased[h][k] = true;
-                    if let Verdict::Off { error_s, miss_m } = verdict {
+                    if let Some((error_s, miss_m)) = contact_error(&n, h, recent, c.piece_of(), reach) {
                         if error_s.abs() <= 2.0 * s.tolerance_s {
                             let b = c.targets_mut().bias_mut(h, n.piece);
                             *b = (*b - miss_m * BIAS_GAIN).clamp_length_max(MAX_BIAS_M);
