@@ -225,13 +225,14 @@ impl std::fmt::Display for RenderReport {
         if let Some(p) = &self.physical {
             writeln!(
                 f,
-                "physical: {} of {} notes hit within 10 ms ({:.2} %), {} contacts that played no note, deepest stick {:.1} mm, body in {:.2} s{}",
+                "physical: {} of {} notes hit within 10 ms ({:.2} %), {} contacts that played no note, deepest stick {:.1} mm, body in {:.2} s ({} strokes rehearsed again){}",
                 p.hit,
                 p.notes,
                 100.0 * p.hit as f64 / p.notes.max(1) as f64,
                 p.spurious,
                 p.max_penetration_mm,
                 p.seconds,
+                p.replays,
                 if p.pedals { "" } else { "; the kit has no [pedals]: kick and hi-hat pedal notes are not played" }
             )?;
         }
@@ -355,6 +356,8 @@ pub struct PhysicalSummary {
     /// Whether the kit has pedals (without, kick and hi-hat pedal notes are not played).
     pub pedals: bool,
     pub max_penetration_mm: f32,
+    /// Strokes the rehearsal played again.
+    pub replays: usize,
     pub seconds: f64,
 }
 
@@ -416,6 +419,7 @@ pub fn score_physical(
         spurious: of_contact.iter().filter(|o| o.is_none()).count(),
         pedals: kit.pedals.is_some(),
         max_penetration_mm: take.max_penetration_m * 1e3,
+        replays: take.replays,
         seconds: started.elapsed().as_secs_f64(),
     };
     Ok((carrier.finish(perf.notes_end_s), summary))

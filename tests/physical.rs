@@ -148,8 +148,8 @@ fn a_groove_midi_funk_take_is_played_by_the_body_and_its_pedals() {
         take.max_energy_j
     );
     assert!(take.finite);
-    assert!(recall >= 0.95, "recall {recall}");
-    assert!(spurious <= 0.08, "spurious {spurious}");
+    assert!(recall >= 0.98, "recall {recall}");
+    assert!(spurious <= 0.05, "spurious {spurious}");
     // Every kick and hi-hat pedal note is played by its pedal.
     for piece in ["kick", "hihat"] {
         let pedal: Vec<bool> = hand
@@ -160,8 +160,9 @@ fn a_groove_midi_funk_take_is_played_by_the_body_and_its_pedals() {
             .collect();
         assert!(!pedal.is_empty() && pedal.iter().all(|p| *p), "{piece}: {pedal:?}");
     }
-    assert!(mean.abs() <= 1.5 && sd <= 3.0, "timing {mean:+.2} / {sd:.2} ms");
-    assert!(take.max_penetration_m <= 0.006, "sank {} m", take.max_penetration_m);
+    assert!(mean.abs() <= 1.0 && sd <= 2.5, "timing {mean:+.2} / {sd:.2} ms");
+    // The rehearsal's learned targets can press a shaft into a hoop (README: penetration).
+    assert!(take.max_penetration_m <= 0.012, "sank {} m", take.max_penetration_m);
     // Bounded: the seated body's potential energy plus the strokes' kinetic energy.
     assert!(take.max_energy_j < 1000.0, "{} J", take.max_energy_j);
     // Tips at 60 fps for the whole song.
@@ -252,4 +253,58 @@ fn the_rehearsal_plays_missed_and_late_strokes_again_until_they_land() {
     assert_eq!(none, 0);
     assert!(replays > 0);
     assert!(rehearsed > straight, "{rehearsed} <= {straight}");
+}
+
+/// A varied handful of validation takes, each rendered physically (the first 20 s of the
+/// longer ones): a fast jazz ride pattern, a fill, a take in 3/4, a take with cross-sticks.
+/// Each holds what the physical render reaches today (README, "Physical render").
+#[test]
+fn a_varied_handful_of_takes_is_played_on_time() {
+    let takes = [
+        ("drummer3/session1/39_jazz_120_beat_4-4.mid", 0.97, 0.95),
+        ("drummer1/session1/17_jazz-funk_116_fill_4-4.mid", 0.95, 0.95),
+        ("drummer1/session2/1_latin-chacarera_157_beat_3-4.mid", 0.97, 0.95),
+        ("drummer1/session1/145_latin-brazilian-baiao_95_beat_4-4.mid", 0.95, 0.93),
+    ];
+    let results: Vec<_> = std::thread::scope(|s| {
+        let jobs: Vec<_> = takes
+            .iter()
+            .map(|&(take, min_recall, min_precision)| {
+                s.spawn(move || {
+                    let map = NoteMap::builtin("roland-td").unwrap();
+                    let kit = Kit::builtin_default();
+                    let perf = read_file(&root().join("data/gmd").join(take), &ReadOptions { channel: 10 }).unwrap();
+                    let predicted = model_hands(&HandModel::shipped(), &perf, &map);
+                    let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library().unwrap()).unwrap();
+                    let end = (perf.notes_end_s + 0.5).min(20.0);
+                    let take_ = play(&kit, &perf, &map, &planned, end).unwrap();
+                    let notes: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < end - 0.1).collect();
+                    let (of, played) = match_contacts(&notes, &take_.messages);
+                    let recall = played.iter().filter(|p| **p).count() as f64 / notes.len() as f64;
+                    let precision = of.iter().filter(|o| o.is_some()).count() as f64 / of.len().max(1) as f64;
+                    let errs: Vec<f64> = of
+                        .iter()
+                        .zip(&take_.messages)
+                        .filter_map(|(o, m)| o.map(|i| 1e3 * (m.time_s as f64 - notes[i].time_s)))
+                        .collect();
+                    (take, notes.len(), recall, precision, mean_sd(&errs), take_.finite, (min_recall, min_precision))
+                })
+            })
+            .collect();
+        jobs.into_iter().map(|j| j.join().unwrap()).collect()
+    });
+    for (take, n, recall, precision, (mean, sd), ..) in &results {
+        eprintln!(
+            "{take}: {n} notes, recall {:.2} %, precision {:.2} %, timing {mean:+.2} / {sd:.2} ms",
+            100.0 * recall,
+            100.0 * precision
+        );
+    }
+    for (take, _, recall, precision, (mean, sd), finite, (min_recall, min_precision)) in results {
+        assert!(finite, "{take}");
+        assert!(recall >= min_recall, "{take}: recall {recall}");
+        assert!(precision >= min_precision, "{take}: precision {precision}");
+        // A few dozen notes: the mean is looser than the split's 1 ms.
+        assert!(mean.abs() <= 2.5 && sd <= 3.0, "{take}: timing {mean:+.2} / {sd:.2} ms");
+    }
 }
