@@ -75,7 +75,10 @@ print(f"{len(rows)} takes of {split} on kit {kit}, {seconds / 60:.1f} min of pla
 print(f"recall {100 * hit / notes:.2f} % ({hit} of {notes} notes), precision {100 * (contacts - spurious) / contacts:.2f} % ({spurious} of {contacts} contacts played no note)")
 print(f"timing mean {mean:+.2f} ms, sd {sd:.2f} ms, p95 |err| {abs_sorted[int(0.95 * len(abs_sorted)) - 1]:.2f} ms")
 print(f"IPD mean {sum(ipd) / len(ipd):.1f} mm, p95 {ipd[int(0.95 * len(ipd)) - 1]:.1f} mm (sticks)")
-print(f"velocity-speed Spearman {spearman([v for v, _ in vs], [s for _, s in vs]):.3f}")
+print(f"velocity-speed Spearman {spearman([p[0] for p in vs], [p[1] for p in vs]):.3f}", end="")
+# Rows from the current probe also name the limb and whether the contact was a hoop's.
+sticks = [p for p in vs if len(p) > 2 and "Hand" in p[2]]
+print(f" (sticks alone {spearman([p[0] for p in sticks], [p[1] for p in sticks]):.3f})" if len(sticks) > 2 else "")
 print(f"deepest stick {max(r['sank_mm'] for r in rows):.1f} mm; all finite: {all(r['finite'] for r in rows)}; largest energy {max(r['energy_j'] for r in rows):.0f} J")
 worst = sorted(rows, key=lambda r: r["hit"] / max(r["notes"], 1))[:5]
 for r in worst:
