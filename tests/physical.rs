@@ -5,9 +5,9 @@
 
 use drumsim::body::sim::{DrummerSettings, Mode};
 use drumsim::kit::Kit;
-use drumsim::midi::{read_file, NoteMap, ReadOptions, Zone};
+use drumsim::midi::{read_file, NoteMap, Performance, ReadOptions, Zone};
 use drumsim::motion::hands::HandModel;
-use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
+use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library, Planned};
 use drumsim::perform::matching::{match_contacts, onsets};
 use drumsim::perform::{play, play_with, Conductor, RehearsalSettings};
 use std::path::{Path, PathBuf};
@@ -22,6 +22,19 @@ fn fresh_dir(tag: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+const FUNK: &str = "drummer1/session1/1_funk_80_beat_4-4.mid";
+
+/// A Groove MIDI take (path under `data/gmd`) planned by the motion stage on the default
+/// kit with the Roland TD map.
+fn planned_take(take: &str) -> (NoteMap, Kit, Performance, Planned) {
+    let map = NoteMap::builtin("roland-td").unwrap();
+    let kit = Kit::builtin_default();
+    let perf = read_file(&root().join("data/gmd").join(take), &ReadOptions { channel: 10 }).unwrap();
+    let predicted = model_hands(&HandModel::shipped(), &perf, &map);
+    let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library().unwrap()).unwrap();
+    (map, kit, perf, planned)
 }
 
 fn mean_sd(v: &[f64]) -> (f64, f64) {
@@ -122,12 +135,7 @@ fn the_demo_rendered_physically_sounds_the_body_s_contacts_on_time_and_repeats_e
 
 #[test]
 fn a_groove_midi_funk_take_is_played_by_the_body_and_its_pedals() {
-    let map = NoteMap::builtin("roland-td").unwrap();
-    let kit = Kit::builtin_default();
-    let song = root().join("data/gmd/drummer1/session1/1_funk_80_beat_4-4.mid");
-    let perf = read_file(&song, &ReadOptions { channel: 10 }).unwrap();
-    let predicted = model_hands(&HandModel::shipped(), &perf, &map);
-    let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library().unwrap()).unwrap();
+    let (map, kit, perf, planned) = planned_take(FUNK);
     let take = play(&kit, &perf, &map, &planned, perf.notes_end_s + 0.5).unwrap();
     let hand = onsets(&perf, &map);
     let (of, played) = match_contacts(&hand, &take.messages);
@@ -199,12 +207,7 @@ fn a_kit_without_pedals_plays_the_hands_and_says_so_and_live_physical_is_refused
 /// a stroke played again from one differs only by its corrected targets.
 #[test]
 fn a_snapshot_of_the_body_plays_on_exactly_as_the_original() {
-    let map = NoteMap::builtin("roland-td").unwrap();
-    let kit = Kit::builtin_default();
-    let song = root().join("data/gmd/drummer1/session1/1_funk_80_beat_4-4.mid");
-    let perf = read_file(&song, &ReadOptions { channel: 10 }).unwrap();
-    let predicted = model_hands(&HandModel::shipped(), &perf, &map);
-    let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library().unwrap()).unwrap();
+    let (map, kit, perf, planned) = planned_take(FUNK);
     let mut c = Conductor::new(&kit, &perf, &map, &planned, DrummerSettings::default()).unwrap();
     while c.time_s() < 2.0 {
         c.period(&mut |_| {});
@@ -230,12 +233,7 @@ fn a_snapshot_of_the_body_plays_on_exactly_as_the_original() {
 /// straight play (no attempts) is what the conductor alone does.
 #[test]
 fn the_rehearsal_plays_missed_and_late_strokes_again_until_they_land() {
-    let map = NoteMap::builtin("roland-td").unwrap();
-    let kit = Kit::builtin_default();
-    let song = root().join("data/gmd/drummer1/session1/1_funk_80_beat_4-4.mid");
-    let perf = read_file(&song, &ReadOptions { channel: 10 }).unwrap();
-    let predicted = model_hands(&HandModel::shipped(), &perf, &map);
-    let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library().unwrap()).unwrap();
+    let (map, kit, perf, planned) = planned_take(FUNK);
     let end = 30.0;
     let hand: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < end - 0.1).collect();
     let measure = |attempts: u8| {
@@ -271,11 +269,7 @@ fn a_varied_handful_of_takes_is_played_on_time() {
             .iter()
             .map(|&(take, min_recall, min_precision)| {
                 s.spawn(move || {
-                    let map = NoteMap::builtin("roland-td").unwrap();
-                    let kit = Kit::builtin_default();
-                    let perf = read_file(&root().join("data/gmd").join(take), &ReadOptions { channel: 10 }).unwrap();
-                    let predicted = model_hands(&HandModel::shipped(), &perf, &map);
-                    let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library().unwrap()).unwrap();
+                    let (map, kit, perf, planned) = planned_take(take);
                     let end = (perf.notes_end_s + 0.5).min(20.0);
                     let take_ = play(&kit, &perf, &map, &planned, end).unwrap();
                     let notes: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < end - 0.1).collect();

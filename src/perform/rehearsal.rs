@@ -48,9 +48,9 @@ impl Default for RehearsalSettings {
 pub enum Verdict {
     /// On time and on the point.
     Good,
-    /// The stick's first contact on the note's piece: its time error (contact - onset,
-    /// seconds) and how far off the strike point it was in the surface's plane (world
-    /// axes, m; zero when the contact was not the tip's bead).
+    /// The stick's contact on the note's piece nearest its onset: its time error (contact -
+    /// onset, seconds) and how far off the strike point it was in the surface's plane
+    /// (world axes, m; zero when the contact was not the tip's bead).
     Off { error_s: f64, miss_m: Vector },
     /// No contact of this stick on the note's piece near the onset.
     Missing,
