@@ -126,7 +126,8 @@ pub fn play_with(
             hihat_openness.truncate(m.hihat);
             (max_energy_j, finite) = (m.max_energy_j, m.finite);
             rehearsal.restart(c.time_s(), strikes.len());
-            period = 0;
+            // The snapshot just restored is still kept: the next is due a cadence later.
+            period = 1;
         }
     }
     // A first note at time 0 may be struck a hair early: it is still the song's.
