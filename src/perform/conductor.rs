@@ -180,7 +180,8 @@ impl Conductor {
         for (h, target) in to.iter_mut().enumerate() {
             target.tip += self.targets.offset(h, p1);
             self.targets.clear(h, t1, target, surfaces, &self.piece_of);
-            self.targets.keep_out(target, sim[h], self.plates.iter().map(|&i| &surfaces[i]));
+            let plates = self.plates.iter().map(|&i| (i, &surfaces[i]));
+            self.targets.keep_out(h, t1, target, sim[h], plates, &self.piece_of);
         }
         let offset = st.drummer.time_s() - st.t;
         // A stroke that bottoms out inside the period passes through its deepest target at

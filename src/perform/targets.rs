@@ -167,33 +167,56 @@ impl TipTargets {
         (n.piece == piece && (t - n.time_s).abs() <= window_s).then_some(n.time_s)
     }
 
-    /// Move `target` out from under any plate that the simulated tip `sim_tip` is below:
-    /// radially to the plate's edge plus the clearance, keeping its height.
-    pub fn keep_out<'a>(&self, target: &mut ArmTarget, sim_tip: Vector, plates: impl IntoIterator<Item = &'a Surface>) {
+    /// Keep the stick from passing through a cymbal on its way to or from another piece:
+    /// when the simulated tip `sim_tip` and `target` are on opposite sides of a plate's plane
+    /// (within [`TargetSettings::plate_keepout_depth_m`] of it), the target is moved radially
+    /// out to the plate's edge plus the clearance while the tip is still over or under the
+    /// plate, and a target below a plate the tip is above is held up at the clearance height
+    /// until the tip is past the edge: the stick goes round the edge, not through it (the
+    /// plate of `hand`'s nearest note is struck from above around its onset, as in
+    /// [`Self::clear`]; `plates`: each plate's surface index and surface).
+    pub fn keep_out<'a>(
+        &self,
+        hand: usize,
+        t: f64,
+        target: &mut ArmTarget,
+        sim_tip: Vector,
+        plates: impl IntoIterator<Item = (usize, &'a Surface)>,
+        piece_of: &[usize],
+    ) {
         let s = &self.settings;
-        for p in plates {
-            let h_sim = p.height(sim_tip);
-            // On top (the bead's centre above the plane, even pressed into it): nothing to do.
-            if h_sim >= 0.0 || h_sim < -s.plate_keepout_depth_m {
-                continue;
-            }
-            let h = p.height(target.tip);
-            if h < -s.plate_keepout_depth_m {
-                continue;
-            }
-            let planar = target.tip - p.center - p.normal * h;
+        let note = self.planned.note_near(hand, t);
+        for (i, p) in plates {
+            let struck = note.is_some_and(|n| {
+                let dt = t - n.time_s;
+                piece_of[i] == n.piece && dt > -s.guard_before_s && dt < s.guard_after_s
+            });
+            let (h_sim, h) = (p.height(sim_tip), p.height(target.tip));
+            let depth = s.plate_keepout_depth_m;
             let reach = p.radius_m + s.plate_clearance_m;
-            let r = planar.length();
-            if r < reach {
-                // Out along the line from the plate's axis through the tip (the simulated
-                // tip's side when the target sits on the axis).
-                let side = if r > 1e-4 {
-                    planar / r
+            let radial = |v: Vector| {
+                let d = v - p.center;
+                d - p.normal * d.dot(p.normal)
+            };
+            let (planar, r_sim) = (radial(target.tip), radial(sim_tip).length());
+            // The side to go out on: the target's, or the simulated tip's when the target
+            // sits on the plate's axis.
+            let side = |planar: Vector| {
+                if planar.length() > 1e-4 {
+                    planar.normalize()
                 } else {
-                    let d = sim_tip - p.center;
-                    (d - p.normal * d.dot(p.normal)).normalize_or(p.u)
-                };
-                target.tip = p.center + p.normal * h + side * reach;
+                    radial(sim_tip).normalize_or(p.u)
+                }
+            };
+            if h_sim < 0.0 && h_sim >= -depth && h >= -depth {
+                // Under the plate: out to its edge at the target's height.
+                if planar.length() < reach {
+                    target.tip = p.center + p.normal * h + side(planar) * reach;
+                }
+            } else if !struck && h_sim >= 0.0 && h < 0.0 && h >= -depth && r_sim < reach {
+                // Over the plate with the target below it: out past the edge first, above it.
+                let up = self.bead_m + s.clearance_m;
+                target.tip = p.center + p.normal * up + side(planar) * planar.length().max(reach);
             }
         }
     }
