@@ -81,7 +81,15 @@ fn main() {
             for (i, k) in first.iter().enumerate() {
                 let Some(k) = *k else { continue };
                 let m = &take_.messages[k];
-                vel_speed.push((hand[i].velocity, m.speed_mps, format!("{:?}", m.limb), m.piece.ends_with("_rim")));
+                let part = take_.strikes[k].from_tip_m;
+                vel_speed.push((
+                    hand[i].velocity,
+                    m.speed_mps,
+                    format!("{:?}", m.limb),
+                    m.piece.ends_with("_rim"),
+                    format!("{:?}", hand[i].zone),
+                    part,
+                ));
                 let stick =
                     matches!(m.limb, drumsim::interaction::Limb::LeftHand | drumsim::interaction::Limb::RightHand);
                 if let (true, Some(piece)) = (stick, kit.piece(&hand[i].piece).filter(|p| p.id == m.piece)) {

@@ -107,7 +107,7 @@ impl ContactTracker {
             for pair in world.narrow_phase.contact_pairs_with(model.sticks[side]) {
                 let other = if pair.collider1 == model.sticks[side] { pair.collider2 } else { pair.collider1 };
                 let Some(k) = model.surface_of(other) else { continue };
-                let Some((_, c)) = pair.find_deepest_contact() else { continue };
+                let Some((manifold, c)) = pair.find_deepest_contact() else { continue };
                 if -c.dist > self.max_penetration_m {
                     self.max_penetration_m = -c.dist;
                     self.deepest_at = (time_s, k, side);
@@ -125,7 +125,23 @@ impl ContactTracker {
                 // The solver's speculative, soft contact starts slowing the tip about a
                 // millimetre before the first impulse it reports; the stick hit at the speed it
                 // had before that.
-                let n = model.surfaces[k].normal;
+                // Into the surface where it was struck: a head's or a cymbal's face normal,
+                // but a hoop's tube by the contact's own normal (up where a rim shot lands,
+                // out where a cross-stick's shaft clicks it; the hoop piece's normal in the
+                // kit file only places its sound).
+                let normal = || {
+                    let n = match pair.collider1 == model.sticks[side] {
+                        _ if !model.is_ring(k) => return model.surfaces[k].normal,
+                        true => -manifold.data.normal,
+                        false => manifold.data.normal,
+                    };
+                    if n.is_finite() && n.length_squared() > 0.5 {
+                        n
+                    } else {
+                        model.surfaces[k].normal
+                    }
+                };
+                let n = if last.is_nan() { normal() } else { model.surfaces[k].normal };
                 let speed_mps = if last.is_nan() {
                     self.recent_tip_vel[side].iter().map(|v| -v.dot(n)).fold(0.0f32, f32::max)
                 } else {
