@@ -26,7 +26,14 @@ fn main() {
     }
     let mut c = Conductor::new(&kit, &perf, &map, &planned, DrummerSettings::default()).unwrap();
     let k = c.drummer().surfaces().iter().position(|s| &s.id == piece).expect("piece");
+    let mut deepest = 0.0f32;
     while c.time_s() < at + 0.15 {
+        if std::env::var_os("SANK").is_some() && c.drummer().max_penetration_m() > deepest + 0.001 {
+            // Each new deepest penetration of a stick, as it happens (the whole take up to T).
+            deepest = c.drummer().max_penetration_m();
+            let (t, k, side) = c.drummer().deepest_penetration_at();
+            println!("sank {:.1} mm at {:.3} s into {} by stick {side}", deepest * 1e3, t - drumsim::perform::PREROLL_S, c.drummer().surfaces()[k].id);
+        }
         let mut hits = Vec::new();
         let fine = std::env::var_os("STEPS").is_some();
         c.period_observed(&mut |s| hits.push(s), &mut |d, t, tg| {

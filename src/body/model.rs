@@ -139,8 +139,8 @@ impl Model {
 
 /// Segments, height above the head and tube radius of a drum's hoop.
 const HOOP_SEGMENTS: usize = 16;
-const HOOP_HEIGHT_M: f32 = 0.012;
-const HOOP_RADIUS_M: f32 = 0.004;
+pub const HOOP_HEIGHT_M: f32 = 0.012;
+pub const HOOP_RADIUS_M: f32 = 0.004;
 
 /// Mass properties of a link in its own frame (hands include their stick).
 pub fn link_mass(skel: &Skeleton, i: usize) -> MassProperties {

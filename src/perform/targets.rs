@@ -12,6 +12,7 @@
 //!   stick never gets caught under the hi-hat or a crash on its way to strike it.
 
 use crate::body::ik::ArmTarget;
+use crate::body::model::{HOOP_HEIGHT_M, HOOP_RADIUS_M};
 use crate::body::model::Surface;
 use crate::motion::plan::{PlannedHands, StrokeSettings};
 use rapier3d::math::Vector;
@@ -32,6 +33,8 @@ pub struct TargetSettings {
     /// How far below a surface a target is still raised by the clearance, m, at least (a
     /// drum's whole depth: a target inside its shell is raised out).
     pub clearance_depth_m: f32,
+    /// Height the shaft keeps above a drum's hoop where it crosses it, m.
+    pub hoop_clearance_m: f32,
     /// The struck piece is exempt from the clearance this long before the onset and after.
     pub guard_before_s: f64,
     pub guard_after_s: f64,
@@ -46,11 +49,16 @@ impl Default for TargetSettings {
             plate_keepout_depth_m: 0.15,
             clearance_m: 0.015,
             clearance_depth_m: 0.02,
+            hoop_clearance_m: 0.004,
             guard_before_s: 0.040,
             guard_after_s: 0.025,
         }
     }
 }
+
+/// A note struck this far out on a drum (as a share of its radius) is a rim shot or a
+/// cross-stick: its shaft meets the hoop.
+const RIM_STROKE_SHARE: f32 = 0.8;
 
 /// Tip targets for both hands, evaluated at any time.
 pub struct TipTargets {
@@ -147,6 +155,11 @@ impl TipTargets {
                     continue;
                 }
             }
+            if piece_of[i] != i {
+                // A drum's hoop: the bead keeps the clearance off its tube, whichever side.
+                self.clear_hoop(target, &surfaces[piece_of[i]]);
+                continue;
+            }
             let h = surface.height(target.tip);
             // Below a drum's head is inside its shell: out. Deep below a cymbal is under
             // it, which the keep-out handles.
@@ -157,6 +170,78 @@ impl TipTargets {
             if planar.length() <= surface.radius_m + self.bead_m {
                 target.tip += surface.normal * (floor - h);
             }
+        }
+    }
+
+    /// Tilt `target`'s stick so its shaft passes over the hoops of `drums` (each drum's
+    /// surface index and head): a low stroke near a drum's edge with a flat stick would lay
+    /// the shaft on the hoop, a click and a stick pressed into it where the note wants the
+    /// head. Where the shaft, followed back from the tip, crosses a hoop lower than the
+    /// hoop's top plus the shaft's radius and [`TargetSettings::hoop_clearance_m`], the stick
+    /// turns (butt up) until it clears. A rim shot's or cross-stick's own drum (a note of
+    /// `hand` struck near its edge, around its onset) is left alone: that shaft is meant to
+    /// land on the hoop.
+    pub fn over_hoops<'a>(
+        &self,
+        hand: usize,
+        t: f64,
+        target: &mut ArmTarget,
+        drums: impl IntoIterator<Item = (usize, &'a Surface)>,
+    ) {
+        let s = &self.settings;
+        let note = self.planned.note_near(hand, t);
+        let clear = HOOP_HEIGHT_M + HOOP_RADIUS_M + self.bead_m + s.hoop_clearance_m;
+        for (i, d) in drums {
+            let h = d.height(target.tip);
+            let q = target.tip - d.center - d.normal * h;
+            if h > clear + 0.1 || h < -d.depth_m || q.length() > d.radius_m {
+                continue;
+            }
+            let rim_stroke = note.is_some_and(|n| {
+                let r = (Vector::from(n.point) - d.center).reject_from(d.normal).length();
+                let dt = t - n.time_s;
+                n.piece == i && r >= RIM_STROKE_SHARE * d.radius_m && dt > -s.guard_before_s && dt < s.guard_after_s
+            });
+            if rim_stroke {
+                continue;
+            }
+            let along = target.dir - d.normal * target.dir.dot(d.normal);
+            let run = along.length();
+            if run < 1e-4 {
+                continue;
+            }
+            // Back from the tip toward the grip, in the head's plane, to the hoop's radius.
+            let back = -along / run;
+            let r = d.radius_m + HOOP_RADIUS_M;
+            let qb = q.dot(back);
+            let s_out = -qb + (qb * qb - q.length_squared() + r * r).max(0.0).sqrt();
+            if s_out <= 1e-4 {
+                continue;
+            }
+            // The shaft rises (going back) by this much per metre across the head.
+            let slope = -target.dir.dot(d.normal) / run;
+            let needed = (clear - h) / s_out;
+            if slope < needed {
+                target.dir = (along - d.normal * (needed * run)).normalize();
+            }
+        }
+    }
+
+    /// Keep `target`'s bead [`TargetSettings::clearance_m`] off the hoop of `drum` (a ring
+    /// tube just outside its head and a little above it, as the body's colliders build it):
+    /// pushed straight away from the nearest point of the ring.
+    fn clear_hoop(&self, target: &mut ArmTarget, drum: &Surface) {
+        let ring = drum.center + drum.normal * HOOP_HEIGHT_M;
+        let planar = (target.tip - ring).reject_from(drum.normal);
+        let r = planar.length();
+        if r < 1e-6 {
+            return;
+        }
+        let nearest = ring + planar * ((drum.radius_m + HOOP_RADIUS_M) / r);
+        let away = target.tip - nearest;
+        let want = HOOP_RADIUS_M + self.bead_m + self.settings.clearance_m;
+        if away.length() < want {
+            target.tip = nearest + away.normalize_or(drum.normal) * want;
         }
     }
 
