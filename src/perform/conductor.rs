@@ -2,7 +2,6 @@
 //! at 10 kHz) at a time, Algorithm 2's loop. The offline render calls [`Conductor::period`];
 //! the live physical mode (not built yet) is to call the same, paced by the audio clock.
 
-const OVER_HOOPS: bool = false;
 use super::feet::PedalTargets;
 use super::targets::{TargetSettings, TipTargets};
 use crate::body::contacts::Strike;
@@ -51,8 +50,6 @@ pub struct Conductor {
     pedal_targets: Option<PedalTargets>,
     /// Surface indices of the cymbals (plates without a drum below them).
     plates: Vec<usize>,
-    /// Surface indices of the drums with a hoop.
-    hooped: Vec<usize>,
     /// The kit piece each surface belongs to (a hoop's is its drum).
     piece_of: Vec<usize>,
     /// The targets the last period ended on before the learned offsets and clearances: where
@@ -97,14 +94,6 @@ impl Conductor {
             .filter(|(i, s)| kit.pieces[*i].kind == PieceKind::Plate && !s.id.ends_with("_rim"))
             .map(|(i, _)| i)
             .collect();
-        // Drums with a hoop (a `<drum>_rim` piece), whose hoop a stick's shaft must clear.
-        let hooped = drummer
-            .surfaces()
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| drummer.surfaces().iter().any(|r| r.id.strip_suffix("_rim") == Some(s.id.as_str())))
-            .map(|(i, _)| i)
-            .collect();
         let piece_of = drummer
             .surfaces()
             .iter()
@@ -114,7 +103,7 @@ impl Conductor {
         let t = -PREROLL_S;
         let from = [targets.at(0, t, None), targets.at(1, t, None)];
         let state = BodyState { drummer, from, touched: [None; 2], pedals: bodies, kick_touched: None, t };
-        Ok(Conductor { state, targets, pedal_targets, plates, hooped, piece_of, aims: [from[0].tip, from[1].tip] })
+        Ok(Conductor { state, targets, pedal_targets, plates, piece_of, aims: [from[0].tip, from[1].tip] })
     }
 
     /// A copy of where the body stands, to go back to with [`Self::restore`].
@@ -193,9 +182,6 @@ impl Conductor {
             self.targets.clear(h, t1, target, surfaces, &self.piece_of);
             let plates = self.plates.iter().map(|&i| (i, &surfaces[i]));
             self.targets.keep_out(h, t1, target, sim[h], plates, &self.piece_of);
-            if OVER_HOOPS {
-                self.targets.over_hoops(h, t1, target, self.hooped.iter().map(|&i| (i, &surfaces[i])));
-            }
         }
         let offset = st.drummer.time_s() - st.t;
         // A stroke that bottoms out inside the period passes through its deepest target at

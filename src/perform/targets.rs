@@ -33,8 +33,6 @@ pub struct TargetSettings {
     /// How far below a surface a target is still raised by the clearance, m, at least (a
     /// drum's whole depth: a target inside its shell is raised out).
     pub clearance_depth_m: f32,
-    /// Height the shaft keeps above a drum's hoop where it crosses it, m.
-    pub hoop_clearance_m: f32,
     /// The struck piece is exempt from the clearance this long before the onset and after.
     pub guard_before_s: f64,
     pub guard_after_s: f64,
@@ -49,16 +47,11 @@ impl Default for TargetSettings {
             plate_keepout_depth_m: 0.15,
             clearance_m: 0.015,
             clearance_depth_m: 0.02,
-            hoop_clearance_m: 0.004,
             guard_before_s: 0.040,
             guard_after_s: 0.025,
         }
     }
 }
-
-/// A note struck this far out on a drum (as a share of its radius) is a rim shot or a
-/// cross-stick: its shaft meets the hoop.
-const RIM_STROKE_SHARE: f32 = 0.8;
 
 /// Tip targets for both hands, evaluated at any time.
 pub struct TipTargets {
@@ -169,60 +162,6 @@ impl TipTargets {
             let planar = target.tip - surface.center - surface.normal * h;
             if planar.length() <= surface.radius_m + self.bead_m {
                 target.tip += surface.normal * (floor - h);
-            }
-        }
-    }
-
-    /// Tilt `target`'s stick so its shaft passes over the hoops of `drums` (each drum's
-    /// surface index and head): a low stroke near a drum's edge with a flat stick would lay
-    /// the shaft on the hoop, a click and a stick pressed into it where the note wants the
-    /// head. Where the shaft, followed back from the tip, crosses a hoop lower than the
-    /// hoop's top plus the shaft's radius and [`TargetSettings::hoop_clearance_m`], the stick
-    /// turns (butt up) until it clears. A rim shot's or cross-stick's own drum (a note of
-    /// `hand` struck near its edge, around its onset) is left alone: that shaft is meant to
-    /// land on the hoop.
-    pub fn over_hoops<'a>(
-        &self,
-        hand: usize,
-        t: f64,
-        target: &mut ArmTarget,
-        drums: impl IntoIterator<Item = (usize, &'a Surface)>,
-    ) {
-        let s = &self.settings;
-        let note = self.planned.note_near(hand, t);
-        let clear = HOOP_HEIGHT_M + HOOP_RADIUS_M + self.bead_m + s.hoop_clearance_m;
-        for (i, d) in drums {
-            let h = d.height(target.tip);
-            let q = target.tip - d.center - d.normal * h;
-            if h > clear + 0.1 || h < -d.depth_m || q.length() > d.radius_m {
-                continue;
-            }
-            let rim_stroke = note.is_some_and(|n| {
-                let r = (Vector::from(n.point) - d.center).reject_from(d.normal).length();
-                let dt = t - n.time_s;
-                n.piece == i && r >= RIM_STROKE_SHARE * d.radius_m && dt > -s.guard_before_s && dt < s.guard_after_s
-            });
-            if rim_stroke {
-                continue;
-            }
-            let along = target.dir - d.normal * target.dir.dot(d.normal);
-            let run = along.length();
-            if run < 1e-4 {
-                continue;
-            }
-            // Back from the tip toward the grip, in the head's plane, to the hoop's radius.
-            let back = -along / run;
-            let r = d.radius_m + HOOP_RADIUS_M;
-            let qb = q.dot(back);
-            let s_out = -qb + (qb * qb - q.length_squared() + r * r).max(0.0).sqrt();
-            if s_out <= 1e-4 {
-                continue;
-            }
-            // The shaft rises (going back) by this much per metre across the head.
-            let slope = -target.dir.dot(d.normal) / run;
-            let needed = (clear - h) / s_out;
-            if slope < needed {
-                target.dir = (along - d.normal * (needed * run)).normalize();
             }
         }
     }
