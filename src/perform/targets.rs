@@ -53,10 +53,15 @@ impl Default for TargetSettings {
     }
 }
 
+/// Points along the shaft checked against a drum's hoop.
+const SHAFT_SAMPLES: usize = 8;
+
 /// Tip targets for both hands, evaluated at any time.
 pub struct TipTargets {
     planned: PlannedHands,
     bead_m: f32,
+    /// From the tip to the grip along the stick, m.
+    shaft_m: f32,
     settings: TargetSettings,
     /// Per hand, the rehearsal's learned offset of the target at each task period (from
     /// the preroll's start; empty until the rehearsal writes one).
@@ -68,12 +73,12 @@ pub struct TipTargets {
 
 impl TipTargets {
     /// From the motion stage's plan: the same strokes, touching at the onset itself (no
-    /// dwell), aimed for a bead of radius `bead_m`.
-    pub fn new(planned: &PlannedHands, bead_m: f32, settings: TargetSettings) -> TipTargets {
+    /// dwell), aimed for a bead of radius `bead_m` on a stick held `shaft_m` from its tip.
+    pub fn new(planned: &PlannedHands, bead_m: f32, shaft_m: f32, settings: TargetSettings) -> TipTargets {
         let planned = planned.with_settings(StrokeSettings { dwell_s: 0.0, ..StrokeSettings::default() });
         let pieces = [0, 1].into_iter().flat_map(|h| planned.notes(h).map(|n| n.piece + 1)).max().unwrap_or(0);
         let bias = [vec![Vector::ZERO; pieces], vec![Vector::ZERO; pieces]];
-        TipTargets { planned, bead_m, settings, offsets: [Vec::new(), Vec::new()], bias }
+        TipTargets { planned, bead_m, shaft_m, settings, offsets: [Vec::new(), Vec::new()], bias }
     }
 
     /// The plan the targets follow.
@@ -166,22 +171,42 @@ impl TipTargets {
         }
     }
 
-    /// Keep `target`'s bead [`TargetSettings::clearance_m`] off the hoop of `drum` (a ring
+    /// Keep `target`'s stick [`TargetSettings::clearance_m`] off the hoop of `drum` (a ring
     /// tube just outside its head and a little above it, as the body's colliders build it):
-    /// pushed straight away from the nearest point of the ring.
+    /// the bead pushed straight away from the ring's nearest point, then the whole stick
+    /// raised along the drum's normal until its shaft, from the tip to the grip, clears the
+    /// ring too (a hand low by the drum's edge would otherwise lever the stick on the hoop as
+    /// it lifts the tip).
     fn clear_hoop(&self, target: &mut ArmTarget, drum: &Surface) {
         let ring = drum.center + drum.normal * HOOP_HEIGHT_M;
-        let planar = (target.tip - ring).reject_from(drum.normal);
-        let r = planar.length();
-        if r < 1e-6 {
-            return;
-        }
-        let nearest = ring + planar * ((drum.radius_m + HOOP_RADIUS_M) / r);
-        let away = target.tip - nearest;
+        let ring_r = drum.radius_m + HOOP_RADIUS_M;
         let want = HOOP_RADIUS_M + self.bead_m + self.settings.clearance_m;
-        if away.length() < want {
-            target.tip = nearest + away.normalize_or(drum.normal) * want;
+        // The ring's nearest point to `p`, and how far `p` is above the ring's plane.
+        let nearest = |p: Vector| {
+            let planar = (p - ring).reject_from(drum.normal);
+            let r = planar.length();
+            (r > 1e-6).then(|| ring + planar * (ring_r / r))
+        };
+        if let Some(q) = nearest(target.tip) {
+            let away = target.tip - q;
+            if away.length() < want {
+                target.tip = q + away.normalize_or(drum.normal) * want;
+            }
         }
+        // The shaft: the lowest clearance along it, below the ring's top only.
+        let mut lift = 0.0f32;
+        for i in 1..=SHAFT_SAMPLES {
+            let p = target.tip - target.dir * (self.shaft_m * i as f32 / SHAFT_SAMPLES as f32);
+            let Some(q) = nearest(p) else { continue };
+            let (d, up) = ((p - q).length(), (p - q).dot(drum.normal));
+            if d < want {
+                // Up until the point is `want` from the ring's centre line, straight above it
+                // at most (a point beside the tube needs less).
+                let across = (p - q).reject_from(drum.normal).length();
+                lift = lift.max((want * want - across * across).max(0.0).sqrt() - up);
+            }
+        }
+        target.tip += drum.normal * lift;
     }
 
     /// The onset of the note `hand` is playing at `t`, if the stick touching `piece` then
