@@ -53,7 +53,10 @@ impl Default for TargetSettings {
     }
 }
 
-/// Points along the shaft checked against a drum's hoop.
+/// A surface solid this deep below it is a drum (a shell under its head), not a cymbal, m.
+const SHELL_MIN_DEPTH_M: f32 = 0.05;
+
+/// Points along the shaft checked against a drum's head and hoop.
 const SHAFT_SAMPLES: usize = 8;
 
 /// Tip targets for both hands, evaluated at any time.
@@ -158,15 +161,24 @@ impl TipTargets {
                 self.clear_hoop(target, &surfaces[piece_of[i]]);
                 continue;
             }
-            let h = surface.height(target.tip);
             // Below a drum's head is inside its shell: out. Deep below a cymbal is under
             // it, which the keep-out handles.
-            if h >= floor || h < -s.clearance_depth_m.max(surface.depth_m) {
-                continue;
+            let deepest = s.clearance_depth_m.max(surface.depth_m);
+            let over = |p: Vector| {
+                let h = surface.height(p);
+                let planar = p - surface.center - surface.normal * h;
+                (h < floor && h >= -deepest && planar.length() <= surface.radius_m + self.bead_m).then_some(floor - h)
+            };
+            if let Some(up) = over(target.tip) {
+                target.tip += surface.normal * up;
             }
-            let planar = target.tip - surface.center - surface.normal * h;
-            if planar.length() <= surface.radius_m + self.bead_m {
-                target.tip += surface.normal * (floor - h);
+            if surface.depth_m >= SHELL_MIN_DEPTH_M {
+                // A drum's head is solid under the whole shaft too: a stick held low beside
+                // a drum, pointing into it, is raised until the shaft clears the head.
+                let lift = (1..=SHAFT_SAMPLES)
+                    .filter_map(|k| over(target.tip - target.dir * (self.shaft_m * k as f32 / SHAFT_SAMPLES as f32)))
+                    .fold(0.0f32, f32::max);
+                target.tip += surface.normal * lift;
             }
         }
     }
