@@ -147,10 +147,22 @@ fn main() {
             let mut kinds = std::collections::BTreeMap::<String, usize>::new();
             for &k in &spurious {
                 let (s, m) = (&take_.strikes[k], &take_.messages[k]);
-                let part = if s.side >= 2 { "foot" } else if s.from_tip_m < 0.012 { "bead" } else { "shaft" };
+                let part = if s.side >= 2 {
+                    "foot"
+                } else if s.from_tip_m < 0.012 {
+                    "bead"
+                } else {
+                    "shaft"
+                };
                 let base = m.piece.strip_suffix("_rim").unwrap_or(&m.piece);
                 let near = hand.iter().any(|o| o.piece == base && (o.time_s - m.time_s as f64).abs() <= 0.06);
-                let speed = if m.speed_mps < 0.5 { "slow" } else if m.speed_mps < 2.0 { "mid" } else { "fast" };
+                let speed = if m.speed_mps < 0.5 {
+                    "slow"
+                } else if m.speed_mps < 2.0 {
+                    "mid"
+                } else {
+                    "fast"
+                };
                 *kinds.entry(format!("{part}/{}/{speed}", if near { "near" } else { "far" })).or_default() += 1;
             }
             println!("  spurious kinds {kinds:?}");

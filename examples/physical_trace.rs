@@ -32,7 +32,12 @@ fn main() {
             // Each new deepest penetration of a stick, as it happens (the whole take up to T).
             deepest = c.drummer().max_penetration_m();
             let (t, k, side) = c.drummer().deepest_penetration_at();
-            println!("sank {:.1} mm at {:.3} s into {} by stick {side}", deepest * 1e3, t - drumsim::perform::PREROLL_S, c.drummer().surfaces()[k].id);
+            println!(
+                "sank {:.1} mm at {:.3} s into {} by stick {side}",
+                deepest * 1e3,
+                t - drumsim::perform::PREROLL_S,
+                c.drummer().surfaces()[k].id
+            );
         }
         let mut hits = Vec::new();
         let fine = std::env::var_os("STEPS").is_some();

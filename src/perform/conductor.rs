@@ -85,7 +85,8 @@ impl Conductor {
         let drummer = Drummer::new(kit, settings)?;
         let bead = drummer.skel.stick.radius_m;
         let stick = &drummer.skel.stick;
-        let targets = TipTargets::new(&planned.hands, bead, (stick.tip() - stick.grip).length(), TargetSettings::default());
+        let targets =
+            TipTargets::new(&planned.hands, bead, (stick.tip() - stick.grip).length(), TargetSettings::default());
         let bodies = PedalBodies::new(kit);
         let pedal_targets = bodies.as_ref().map(|b| PedalTargets::new(perf, map, kit, b, &planned.motion));
         let plates = drummer

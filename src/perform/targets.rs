@@ -12,8 +12,8 @@
 //!   stick never gets caught under the hi-hat or a crash on its way to strike it.
 
 use crate::body::ik::ArmTarget;
-use crate::body::model::{HOOP_HEIGHT_M, HOOP_RADIUS_M};
 use crate::body::model::Surface;
+use crate::body::model::{HOOP_HEIGHT_M, HOOP_RADIUS_M};
 use crate::motion::plan::{PlannedHands, StrokeSettings};
 use rapier3d::math::Vector;
 
