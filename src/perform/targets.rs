@@ -9,7 +9,9 @@
 //!   stops the stick; the body clamps targets inside a drum to 1 cm below its head);
 //! - the planned travel knows nothing of the kit's solids: a tip below a cymbal's plane and
 //!   under it is aimed radially out past its edge until it has come up beside it, so a
-//!   stick never gets caught under the hi-hat or a crash on its way to strike it.
+//!   stick never gets caught under the hi-hat or a crash on its way to strike it, and one
+//!   over a cymbal goes out past its edge before it heads below it; targets keep the bead
+//!   clear of pieces not being struck, and the whole stick clear of drum heads and hoops.
 
 use crate::body::ik::ArmTarget;
 use crate::body::model::Surface;
