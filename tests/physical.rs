@@ -65,6 +65,18 @@ fn the_demo_rendered_physically_sounds_the_body_s_contacts_on_time_and_repeats_e
         assert!(contacts.iter().all(|c| c["impulse_ns"].as_f64().unwrap() > 0.0));
         let kicks = contacts.iter().filter(|c| c["piece"] == "kick").count();
         assert!(kicks > 0 && contacts.iter().filter(|c| c["piece"] == "kick").all(|c| c["limb"] == 2));
+        // A rim shot's hoop contact is measured at the stick's speed into the hoop (not along
+        // the hoop piece's kit-file normal, which only places its sound).
+        let kit = Kit::load(Path::new("default")).unwrap();
+        let rims: Vec<(f64, f64)> = contacts
+            .iter()
+            .filter(|c| c["piece"] == "snare_rim" && !c["note"].is_null())
+            .map(|c| {
+                let planned = kit.strike.speed_for_velocity(c["note"]["velocity"].as_u64().unwrap() as u8);
+                (c["speed_mps"].as_f64().unwrap(), planned as f64)
+            })
+            .collect();
+        assert!(!rims.is_empty() && rims.iter().all(|(s, p)| *s >= 0.6 * p), "rim shots (speed, planned): {rims:?}");
         let played: Vec<&serde_json::Value> = contacts.iter().filter(|c| !c["note"].is_null()).collect();
         assert!(
             played.len() * 100 >= contacts.len() * 90,

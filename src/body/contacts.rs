@@ -129,19 +129,19 @@ impl ContactTracker {
                 // but a hoop's tube by the contact's own normal (up where a rim shot lands,
                 // out where a cross-stick's shaft clicks it; the hoop piece's normal in the
                 // kit file only places its sound).
-                let normal = || {
-                    let n = match pair.collider1 == model.sticks[side] {
-                        _ if !model.is_ring(k) => return model.surfaces[k].normal,
-                        true => -manifold.data.normal,
-                        false => manifold.data.normal,
-                    };
+                let face = model.surfaces[k].normal;
+                let n = if last.is_nan() && model.is_ring(k) {
+                    // The manifold's normal points from collider 1 to collider 2.
+                    let n =
+                        if pair.collider1 == model.sticks[side] { -manifold.data.normal } else { manifold.data.normal };
                     if n.is_finite() && n.length_squared() > 0.5 {
                         n
                     } else {
-                        model.surfaces[k].normal
+                        face
                     }
+                } else {
+                    face
                 };
-                let n = if last.is_nan() { normal() } else { model.surfaces[k].normal };
                 let speed_mps = if last.is_nan() {
                     self.recent_tip_vel[side].iter().map(|v| -v.dot(n)).fold(0.0f32, f32::max)
                 } else {

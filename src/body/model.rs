@@ -127,12 +127,12 @@ impl Clone for Model {
 }
 
 impl Model {
-    /// The surface a kit collider belongs to.
     /// Whether surface `k` is a drum's hoop (a ring of colliders).
     pub fn is_ring(&self, k: usize) -> bool {
         self.owners.iter().filter(|(_, o)| *o == k).nth(1).is_some()
     }
 
+    /// The surface a kit collider belongs to.
     pub fn surface_of(&self, c: ColliderHandle) -> Option<usize> {
         self.owners.iter().find(|(h, _)| *h == c).map(|(_, k)| *k)
     }

@@ -58,7 +58,8 @@ impl Default for TargetSettings {
 /// A surface solid this deep below it is a drum (a shell under its head), not a cymbal, m.
 const SHELL_MIN_DEPTH_M: f32 = 0.05;
 
-/// Points along the shaft checked against a drum's head and hoop.
+/// Points along the shaft checked against a drum's head and hoop (about 4 cm apart on a
+/// stick held 30 cm from its tip).
 const SHAFT_SAMPLES: usize = 8;
 
 /// Tip targets for both hands, evaluated at any time.
@@ -177,12 +178,16 @@ impl TipTargets {
             if surface.depth_m >= SHELL_MIN_DEPTH_M {
                 // A drum's head is solid under the whole shaft too: a stick held low beside
                 // a drum, pointing into it, is raised until the shaft clears the head.
-                let lift = (1..=SHAFT_SAMPLES)
-                    .filter_map(|k| over(target.tip - target.dir * (self.shaft_m * k as f32 / SHAFT_SAMPLES as f32)))
-                    .fold(0.0f32, f32::max);
+                let lift = self.shaft_points(target).filter_map(over).fold(0.0f32, f32::max);
                 target.tip += surface.normal * lift;
             }
         }
+    }
+
+    /// Points along `target`'s stick from beside the tip to the grip.
+    fn shaft_points(&self, target: &ArmTarget) -> impl Iterator<Item = Vector> + '_ {
+        let (tip, dir) = (target.tip, target.dir);
+        (1..=SHAFT_SAMPLES).map(move |k| tip - dir * (self.shaft_m * k as f32 / SHAFT_SAMPLES as f32))
     }
 
     /// Keep `target`'s stick [`TargetSettings::clearance_m`] off the hoop of `drum` (a ring
@@ -195,7 +200,7 @@ impl TipTargets {
         let ring = drum.center + drum.normal * HOOP_HEIGHT_M;
         let ring_r = drum.radius_m + HOOP_RADIUS_M;
         let want = HOOP_RADIUS_M + self.bead_m + self.settings.clearance_m;
-        // The ring's nearest point to `p`, and how far `p` is above the ring's plane.
+        // The point of the ring's centre line nearest `p`.
         let nearest = |p: Vector| {
             let planar = (p - ring).reject_from(drum.normal);
             let r = planar.length();
@@ -207,10 +212,9 @@ impl TipTargets {
                 target.tip = q + away.normalize_or(drum.normal) * want;
             }
         }
-        // The shaft: the lowest clearance along it, below the ring's top only.
+        // The shaft: raised by what its closest point to the ring needs.
         let mut lift = 0.0f32;
-        for i in 1..=SHAFT_SAMPLES {
-            let p = target.tip - target.dir * (self.shaft_m * i as f32 / SHAFT_SAMPLES as f32);
+        for p in self.shaft_points(target) {
             let Some(q) = nearest(p) else { continue };
             let (d, up) = ((p - q).length(), (p - q).dot(drum.normal));
             if d < want {
@@ -282,5 +286,79 @@ impl TipTargets {
                 target.tip = p.center + p.normal * up + side(planar) * planar.length().max(reach);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::plan::{plan_hands, Assignment};
+    use rapier3d::geometry::ColliderHandle;
+
+    /// Targets with no notes (nothing is being struck), a 7 mm bead held 30 cm from its tip.
+    fn targets() -> TipTargets {
+        let planned = plan_hands(&[], 60.0, &[], &Assignment::default(), StrokeSettings::default());
+        TipTargets::new(&planned, 0.007, 0.30, TargetSettings::default())
+    }
+
+    fn surface(id: &str, center: Vector, radius_m: f32, depth_m: f32) -> Surface {
+        Surface {
+            id: id.into(),
+            collider: ColliderHandle::invalid(),
+            center,
+            normal: Vector::Z,
+            u: Vector::X,
+            v: Vector::Y,
+            radius_m,
+            depth_m,
+        }
+    }
+
+    #[test]
+    fn a_stick_levered_low_across_a_drum_s_hoop_is_raised_until_its_shaft_clears_it() {
+        let t = targets();
+        // A snare at the origin (its hoop is surface 1) and a stick whose tip is 3 cm above
+        // the head near its edge, the grip lower, outside the drum: the shaft lies on the hoop.
+        let surfaces = [surface("snare", Vector::ZERO, 0.178, 0.35), surface("snare_rim", Vector::ZERO, 0.03, 0.02)];
+        let mut target = ArmTarget { tip: Vector::new(0.0, -0.12, 0.03), dir: Vector::new(0.0, 1.0, 0.12).normalize() };
+        let ring_gap = |target: &ArmTarget| {
+            (0..=300)
+                .map(|k| target.tip - target.dir * (0.001 * k as f32))
+                .map(|p| {
+                    let r = (p.x * p.x + p.y * p.y).sqrt();
+                    (r - (0.178 + HOOP_RADIUS_M)).hypot(p.z - HOOP_HEIGHT_M)
+                })
+                .fold(f32::INFINITY, f32::min)
+        };
+        let touching = HOOP_RADIUS_M + 0.007;
+        assert!(ring_gap(&target) < touching, "the setup must have the shaft on the hoop");
+        let dir = target.dir;
+        t.clear(0, 1.0, &mut target, &surfaces, &[0, 0]);
+        assert!(ring_gap(&target) >= touching, "shaft {} m from the ring's centre line", ring_gap(&target));
+        assert_eq!(target.dir, dir, "the stick keeps its angle; it is raised");
+        assert!(target.tip.z < 0.2, "raised no more than it needs: tip at {}", target.tip.z);
+    }
+
+    #[test]
+    fn a_stick_over_a_cymbal_goes_out_past_its_edge_before_heading_below_it() {
+        let t = targets();
+        let hihat = surface("hihat", Vector::new(0.0, 0.0, 1.0), 0.18, 0.02);
+        let s = TargetSettings::default();
+        let reach = 0.18 + s.plate_clearance_m;
+        let below = Vector::new(0.05, 0.0, 0.90);
+        // The simulated tip above the cymbal, the target under it: out and up first.
+        let mut target = ArmTarget { tip: below, dir: Vector::Y };
+        t.keep_out(0, 1.0, &mut target, Vector::new(0.10, 0.0, 1.05), [(0, &hihat)], &[0]);
+        let planar = (target.tip.x * target.tip.x + target.tip.y * target.tip.y).sqrt();
+        assert!(planar >= reach - 1e-5 && target.tip.x > 0.0, "out past the edge on the target's side: {planar}");
+        assert!(target.tip.z > 1.0, "above the cymbal while going round: {}", target.tip.z);
+        // Once the tip is past the edge, the target below is left alone.
+        let mut target = ArmTarget { tip: below, dir: Vector::Y };
+        t.keep_out(0, 1.0, &mut target, Vector::new(reach + 0.01, 0.0, 1.02), [(0, &hihat)], &[0]);
+        assert_eq!(target.tip, below);
+        // Under the cymbal, the target is moved out at its own height.
+        let mut target = ArmTarget { tip: below, dir: Vector::Y };
+        t.keep_out(0, 1.0, &mut target, Vector::new(0.10, 0.0, 0.95), [(0, &hihat)], &[0]);
+        assert!((target.tip.z - below.z).abs() < 1e-6 && target.tip.x >= reach - 1e-5);
     }
 }
