@@ -33,9 +33,11 @@ fn main() {
         if let Some(a) = std::env::var("ATTEMPTS").ok().and_then(|v| v.parse().ok()) {
             settings.attempts = a;
         }
-        let take_ = play_with(&kit, &perf, &map, &planned, perf.notes_end_s + 0.5, &settings).unwrap();
+        // UNTIL=S plays the first S seconds only (the notes after them are not counted).
+        let until = std::env::var("UNTIL").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::INFINITY);
+        let take_ = play_with(&kit, &perf, &map, &planned, perf.notes_end_s.min(until) + 0.5, &settings).unwrap();
         let wall = started.elapsed().as_secs_f64();
-        let all = onsets(&perf, &map);
+        let all: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < until).collect();
         let hand = all.clone();
         let (of, played) = match_contacts(&hand, &take_.messages);
         let hit = played.iter().filter(|p| **p).count();

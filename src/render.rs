@@ -362,7 +362,8 @@ pub struct PhysicalSummary {
 }
 
 /// Physical mode: the staged motion played by the body; its contacts, and the hi-hat
-/// openness of the left foot, are the only messages. Notes are matched to contacts only
+/// openness of the left foot, are the only messages besides cymbal chokes (a grab the body
+/// does not make yet, sent at the aftertouch's time). Notes are matched to contacts only
 /// for SONG.contacts.json and the summary.
 pub fn score_physical(
     perf: &Performance,
@@ -393,6 +394,15 @@ pub fn score_physical(
             let time_s = (f as f64 / 60.0) as f32;
             carrier.carry(&Message::HiHat { time_s, openness: o }, None)?;
             last = o;
+        }
+    }
+    // A hand grabbing a cymbal (poly aftertouch) chokes it. The body does not reach for the
+    // cymbal yet: the grab is taken from the performance at its time, as direct mode does.
+    for ev in &perf.events {
+        if let crate::midi::DrumEventKind::Aftertouch { note, pressure } = ev.kind {
+            if let (true, Some(entry)) = (pressure > 0, map.entry(note)) {
+                carrier.carry(&Message::Choke { piece: entry.piece.clone(), time_s: ev.time_s as f32 }, None)?;
+            }
         }
     }
     for (m, of) in take.messages.iter().zip(&of_contact) {

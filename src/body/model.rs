@@ -79,11 +79,10 @@ impl Surface {
 }
 
 /// Tangent basis of a surface: u is the world +x laid onto the surface (world +y where the
-/// surface faces sideways), v = n x u. The direct mode uses the same axes.
+/// surface faces sideways), v = n x u: [`crate::kit::surface_basis`], which direct mode uses too.
 pub fn surface_basis(n: Vector) -> (Vector, Vector) {
-    let pick = if n.x.abs() > 0.9 { Vector::Y } else { Vector::X };
-    let u = (pick - n * pick.dot(n)).normalize();
-    (u, n.cross(u))
+    let (u, v) = crate::kit::surface_basis(n.into());
+    (Vector::from(u), Vector::from(v))
 }
 
 /// The built world and the handles the controller needs.

@@ -180,7 +180,7 @@ impl Drummer {
                 }
             }
         }
-        let contacts = ContactTracker::new(&model);
+        let contacts = ContactTracker::new(&model, kit.strike.stick_mass_kg);
         let limits = match &settings.limits {
             Some(l) => l.iter().map(|l| l.compile()).collect::<Result<Vec<_>, _>>()?,
             None => Vec::new(),

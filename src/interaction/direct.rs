@@ -19,6 +19,9 @@ struct NotePlan {
     rim_piece: Option<String>,
     zone: Zone,
     radius_m: f32,
+    /// Direction of the strike point from the centre, in the piece's (x, y) axes: toward the
+    /// drummer, where the motion stage aims ([`crate::kit::strike_point`]).
+    aim_angle: f32,
     is_cymbal: bool,
     is_hihat: bool,
     is_kick: bool,
@@ -63,6 +66,7 @@ impl Director {
                 rim_piece: kit.piece(&rim_id).map(|p| p.id.clone()),
                 zone: entry.zone,
                 radius_m: piece.radius_m,
+                aim_angle: crate::kit::toward_drummer_angle(piece),
                 is_cymbal: piece.kind == PieceKind::Plate,
                 is_hihat: piece.closed_damping_factor.is_some(),
                 is_kick: piece.id == "kick",
@@ -121,20 +125,12 @@ impl Director {
                 out.push(Message::HiHat { time_s, openness });
             }
         }
-        let fraction = match plan.zone {
-            Zone::Center => self.zones.center,
-            Zone::Head => self.zones.head,
-            Zone::Rim => self.zones.rim,
-            Zone::CrossStick => self.zones.cross_stick,
-            Zone::Bow => self.zones.bow,
-            Zone::Edge => self.zones.edge,
-            Zone::Bell => self.zones.bell,
-            Zone::Pedal if plan.is_hihat => self.zones.bow,
-            Zone::Pedal => self.zones.pedal,
-        };
-        // Strike point: toward the drummer (-y), varied a little from stroke to stroke as a
-        // player's hand does (deterministic, so renders repeat).
-        let angle = -std::f32::consts::FRAC_PI_2 + 0.35 * jitter(self.count);
+        let zone = if plan.zone == Zone::Pedal && plan.is_hihat { Zone::Bow } else { plan.zone };
+        let fraction = self.zones.fraction(zone);
+        // Strike point: on the side toward the drummer, where the body's stick aims, varied a
+        // little from stroke to stroke as a player's hand does (deterministic, so renders
+        // repeat).
+        let angle = plan.aim_angle + 0.35 * jitter(self.count);
         let r = plan.radius_m * fraction * (1.0 + 0.04 * jitter(self.count.wrapping_mul(31)));
         let r = r.min(plan.radius_m * 0.995);
         let contact = |piece: &str, speed_mps: f32, mass_kg: f32, r: f32| ContactMessage {

@@ -1,10 +1,12 @@
 //! The kit: where each piece is (for the body) and how it sounds (for the synthesizer).
 //! Raw TOML (serde) is validated once into [`Kit`]; errors name the file, the key and the range.
 
+mod geometry;
 mod raw;
 
 use std::path::{Path, PathBuf};
 
+pub use geometry::{strike_point, surface_basis, toward_drummer, toward_drummer_angle};
 pub use raw::{BUILTIN_KITS, DEFAULT_KIT_TOML};
 
 /// How a piece vibrates.

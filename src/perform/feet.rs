@@ -11,7 +11,9 @@
 //!   it at the onset whatever the pedal data says (an e-kit sends the note when its pedal
 //!   passes its own closing threshold, which CC4 alone does not show): the foot lifts it
 //!   open over 30 ms, shuts it at 0.4 of the stroke speed of its velocity, reaching it at the
-//!   onset, and holds it shut 60 ms.
+//!   onset, and holds it shut 60 ms. The openness is measured from where the cymbals meet,
+//!   so the simulated hi-hat is as open as the pedal data says (what direct mode sends);
+//!   closed pedal data presses the top cymbal 3 mm onto the bottom one.
 
 use crate::body::pedals::{PedalBodies, PedalTarget, HIHAT_PRESS_M, MIN_CLOSING_NOTE_FREE_MPS};
 use crate::kit::Kit;
@@ -29,6 +31,8 @@ const CHICK_SPEED_SCALE: f32 = 0.4;
 const CHICK_HOLD_S: f64 = 0.060;
 /// How long the foot takes to lift the hi-hat open before a chick, seconds.
 const CHICK_LIFT_S: f64 = 0.030;
+/// Pedal data this near closed (openness) presses the hi-hat shut.
+const CLOSED_BAND: f32 = 0.05;
 /// The beater's return to rest, time constant, seconds.
 const RETURN_S: f32 = 0.030;
 
@@ -73,15 +77,22 @@ impl PedalTargets {
         kicks.dedup_by(|b, a| b.0 - a.0 < 0.012);
         let travel = bodies.pedals().hihat_travel_m;
         let chicks = pedal_notes(perf, map, "hihat", |v| CHICK_SPEED_SCALE * kit.strike.speed_for_velocity(v) / travel);
+        // The target is in the pedal's units (0: pressed shut by the clutch's press, `touch`:
+        // the cymbals meet, 1 + `touch`: fully open). The foot's lift is the openness the
+        // pedal data asks, measured from the touch as the sound engine hears it (direct mode
+        // sends the same openness): closed (within the first 5 %) presses shut.
+        let touch = HIHAT_PRESS_M / travel;
         let mut lift: Vec<f32> = motion
             .frames
             .iter()
-            .map(|f| ((f.feet[0].pos[2] - FEET_HOME[0][2]) / PRESS_LIFT_M).clamp(0.0, 1.0))
+            .map(|f| {
+                let open = ((f.feet[0].pos[2] - FEET_HOME[0][2]) / PRESS_LIFT_M).clamp(0.0, 1.0);
+                open + touch * (open / CLOSED_BAND).min(1.0)
+            })
             .collect();
         // Where no pedal note asks for a chick, the foot lets the top cymbal settle onto the
         // bottom one: the last part of a closing, from just above the touch, goes no faster
         // than a contact that makes no sound.
-        let touch = HIHAT_PRESS_M / travel;
         let (soft, step) = (touch + 0.1, MIN_CLOSING_NOTE_FREE_MPS / travel / motion.fps as f32);
         for f in 1..lift.len() {
             if lift[f] < lift[f - 1] && lift[f] < soft {
@@ -130,7 +141,8 @@ impl PedalTargets {
         PedalTarget { pos: self.rest + d * e, vel: -d * e / RETURN_S, acc: d * e / (RETURN_S * RETURN_S) }
     }
 
-    /// The hi-hat's openness target at `t` (0 closed .. 1 open), with its rate.
+    /// The hi-hat's target at `t` (0 pressed shut .. 1 + the clutch's press over the travel
+    /// fully open), with its rate.
     pub fn hihat(&self, t: f64) -> PedalTarget {
         if self.lift.is_empty() {
             return PedalTarget::default();

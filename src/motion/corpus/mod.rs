@@ -237,37 +237,8 @@ pub fn hand_notes(perf: &Performance, map: &NoteMap, kit: &Kit) -> Result<(Vec<H
     Ok((notes, unmapped))
 }
 
-/// Where a zone of a piece is struck, and the surface normal there. The point lies in the
-/// piece's plane at the kit's zone radius (a fraction of the piece radius: head about a third,
-/// center 0, rim and cross-stick near the hoop, cymbal bell / bow / edge), on the side facing
-/// the drummer: along the direction toward the stool (x = y = 0) projected into the plane.
-pub fn strike_point(kit: &Kit, piece: &Piece, zone: Zone) -> ([f32; 3], [f32; 3]) {
-    let z = &kit.zones;
-    let fraction = match zone {
-        Zone::Center => z.center,
-        Zone::Head => z.head,
-        Zone::Rim => z.rim,
-        Zone::CrossStick => z.cross_stick,
-        Zone::Bow => z.bow,
-        Zone::Edge => z.edge,
-        Zone::Bell => z.bell,
-        Zone::Pedal => z.pedal,
-    };
-    let n = piece.normal;
-    let c = piece.position_m;
-    let toward = [-c[0], -c[1], 0.0];
-    let inplane = |v: [f32; 3]| {
-        let d = dot(v, n);
-        [v[0] - d * n[0], v[1] - d * n[1], v[2] - d * n[2]]
-    };
-    let mut dir = inplane(toward);
-    if norm(dir) < 1e-4 {
-        dir = inplane([0.0, -1.0, 0.0]);
-    }
-    let dir = normalize(dir);
-    let r = piece.radius_m * fraction;
-    ([c[0] + dir[0] * r, c[1] + dir[1] * r, c[2] + dir[2] * r], n)
-}
+/// Where a zone of a piece is struck (the kit's geometry, shared with the body and direct mode).
+pub use crate::kit::strike_point;
 
 pub(crate) fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
