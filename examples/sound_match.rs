@@ -30,8 +30,8 @@ fn main() -> anyhow::Result<()> {
         if verbose {
             for n in &notes {
                 println!(
-                    "  {:8.3} {:10} onset {:+6.2} ms level {:+6.1} dB",
-                    n.note.time_s, n.piece, n.onset_diff_ms, n.level_diff_db
+                    "  {:8.3} {:10} v{:<3} onset {:+6.2} ms level {:+6.1} dB",
+                    n.note.time_s, n.piece, n.note.velocity, n.onset_diff_ms, n.level_diff_db
                 );
             }
         }

@@ -26,7 +26,17 @@ fn binary_alone(tag: &str) -> (PathBuf, PathBuf) {
 
 /// Runs `exe` in `cwd` with an empty environment.
 fn run_bare(exe: &Path, cwd: &Path, args: &[&str]) -> Output {
-    Command::new(exe).args(args).current_dir(cwd).env_clear().output().expect("run drumsim")
+    // A test thread forking while the copy was still open for writing holds a write handle
+    // to it for a moment ("text file busy"): try again.
+    for _ in 0..100 {
+        match Command::new(exe).args(args).current_dir(cwd).env_clear().output() {
+            Err(e) if e.kind() == std::io::ErrorKind::ExecutableFileBusy => {
+                std::thread::sleep(std::time::Duration::from_millis(20))
+            }
+            r => return r.expect("run drumsim"),
+        }
+    }
+    panic!("{} stayed busy", exe.display())
 }
 
 fn stderr(o: &Output) -> String {

@@ -90,7 +90,9 @@ pub struct PedalBodies {
     hihat: Axis,
     /// Kick head: surface index, centre, normal, tangent axes.
     kick: Option<(usize, Vector, Vector, Vector, Vector)>,
-    hihat_surface: Option<(usize, f32)>,
+    /// The hi-hat's surface and where a chick sounds on it (x, y): at the bow's radius on
+    /// the drummer's side, where direct mode puts it.
+    hihat_surface: Option<(usize, f32, f32)>,
     beater_mass_kg: f32,
     hihat_mass_kg: f32,
 }
@@ -112,7 +114,10 @@ impl PedalBodies {
             (gap / pedals.beater_length_m).clamp(-1.0, 1.0).asin()
         });
         let rest = contact - pedals.beater_rest_deg.to_radians();
-        let hihat_surface = kit.index_of("hihat").map(|i| (i, kit.pieces[i].radius_m * kit.zones.bow));
+        let hihat_surface = kit.index_of("hihat").map(|i| {
+            let (r, a) = (kit.pieces[i].radius_m * kit.zones.bow, crate::kit::toward_drummer_angle(&kit.pieces[i]));
+            (i, r * a.cos(), r * a.sin())
+        });
         Some(PedalBodies {
             pedals,
             beater: Axis {
@@ -195,15 +200,15 @@ impl PedalBodies {
         let target =
             PedalTarget { pos: HIHAT_PRESS_M - hihat.pos * travel, vel: -hihat.vel * travel, acc: -hihat.acc * travel };
         if let Some(rate) = self.hihat.step(target, time_s) {
-            if let (Some((surface, r)), true) = (self.hihat_surface, rate >= MIN_STRIKE_SPEED_MPS) {
+            if let (Some((surface, x_m, y_m)), true) = (self.hihat_surface, rate >= MIN_STRIKE_SPEED_MPS) {
                 sink(Strike {
                     surface,
                     side: HIHAT_FOOT,
                     time_s,
                     speed_mps: rate,
                     mass_kg: self.hihat_mass_kg,
-                    x_m: 0.0,
-                    y_m: -r,
+                    x_m,
+                    y_m,
                     impulse_ns: self.hihat_mass_kg * rate * (1.0 + HIHAT_RESTITUTION),
                     point: Vector::ZERO,
                     stick_dir: -Vector::Z,

@@ -234,4 +234,42 @@ mod tests {
         assert!((kicks[0].speed_mps - speed).abs() < 0.1 * speed, "{} vs {speed}", kicks[0].speed_mps);
         assert!(chicks[0].speed_mps > 0.2 * speed && chicks[0].speed_mps < 0.45 * speed, "{}", chicks[0].speed_mps);
     }
+
+    /// Pedal data holding the hi-hat 40 % open, then closed: the simulated hi-hat is as open
+    /// as the data says (the openness direct mode sends), then shut without a sound.
+    #[test]
+    fn the_simulated_hi_hat_is_as_open_as_the_pedal_data() {
+        let kit = Kit::builtin_default();
+        let map = NoteMap::builtin("roland-td").unwrap();
+        let perf = Performance { path: "t.mid".into(), events: vec![], duration_s: 3.0, notes_end_s: 3.0, channel: 10 };
+        let foot = |open: f32| Pose {
+            pos: [FEET_HOME[0][0], FEET_HOME[0][1], FEET_HOME[0][2] + PRESS_LIFT_M * open],
+            rot: Pose::IDENTITY.rot,
+        };
+        let frame = |open: f32| MotionFrame {
+            hands: [Pose::IDENTITY; 2],
+            chest: Pose::IDENTITY,
+            head: Pose::IDENTITY,
+            feet: [foot(open), Pose { pos: FEET_HOME[1], rot: Pose::IDENTITY.rot }],
+            face: vec![0.0; 52],
+            hihat_openness: open,
+        };
+        let frames = (0..181).map(|f| frame(if f < 90 { 0.4 } else { 0.0 })).collect();
+        let motion = Motion { fps: 60.0, frames };
+        let mut bodies = PedalBodies::new(&kit).unwrap();
+        let targets = PedalTargets::new(&perf, &map, &kit, &bodies, &motion);
+        let mut strikes = Vec::new();
+        let mut at = |bodies: &mut PedalBodies, from: usize, to: usize| {
+            for k in from..to {
+                let t = (k + 1) as f64 * DT_S as f64;
+                bodies.step(targets.beater(t, None), targets.hihat(t), t, &mut |s| strikes.push(s));
+            }
+            bodies.hihat_openness()
+        };
+        let open = at(&mut bodies, 0, 12_000);
+        assert!((open - 0.4).abs() < 0.02, "open {open}");
+        let shut = at(&mut bodies, 12_000, 30_000);
+        assert_eq!(shut, 0.0);
+        assert!(strikes.iter().all(|s| kit.pieces[s.surface].id != "hihat"), "{strikes:?}");
+    }
 }
