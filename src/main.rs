@@ -98,9 +98,9 @@ enum Command {
         /// Write joint-angle traces (one trial per style and mode, 250 Hz) to this JSON file.
         #[arg(long)]
         traces: Option<PathBuf>,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
+        /// Worker threads, 1 to 1024 (default: all cores; never more than there are trials).
+        #[arg(long, value_parser = clap::value_parser!(u16).range(1..=1024))]
+        threads: Option<u16>,
         #[arg(long)]
         kit: Option<PathBuf>,
     },
@@ -292,7 +292,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 ModeArg::Ik => vec![Mode::Ik],
                 ModeArg::All => Mode::ALL.to_vec(),
             };
-            let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+            let threads = threads
+                .map(usize::from)
+                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+                .max(1);
             let opts = drumsim::body::report::StrokesOptions {
                 modes,
                 trials: trials as usize,

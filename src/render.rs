@@ -74,6 +74,12 @@ pub enum RenderInputError {
     Channel(u8),
     #[error("{path}: the file name has no stem to name the outputs after")]
     NoStem { path: PathBuf },
+    #[error(
+        "{path}: its last note ends at {}, past the {} a render holds (a 24-bit stereo WAV stops at 4 GiB)",
+        hms(*last_note_s),
+        hms(MAX_SONG_S)
+    )]
+    TooLong { path: PathBuf, last_note_s: f64 },
     #[error(transparent)]
     Direct(#[from] DirectError),
 }
@@ -268,7 +274,20 @@ pub fn read_song(song: &Path, map: &NoteMap, opts: &RenderOptions) -> anyhow::Re
     if !opts.skip_unknown {
         map.check_known(&perf)?;
     }
+    if perf.notes_end_s > MAX_SONG_S {
+        return Err(RenderInputError::TooLong { path: song.to_path_buf(), last_note_s: perf.notes_end_s }.into());
+    }
     Ok(perf)
+}
+
+/// The longest song a render takes, seconds: its WAV (24-bit stereo at 48 kHz) must stay
+/// under the format's 4 GiB, which holds 4.14 hours.
+pub const MAX_SONG_S: f64 = 4.0 * 3600.0;
+
+/// Hours:minutes:seconds of `s`.
+fn hms(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
 }
 
 /// Read a song and turn it into contact messages and sound events (direct mode).
@@ -445,7 +464,14 @@ pub fn render_events(
     mut sink: impl FnMut(&[f32], &[f32]) -> anyhow::Result<()>,
     mut progress: impl FnMut(u64),
 ) -> anyhow::Result<(u64, u64)> {
-    let settings = EngineSettings { sample_rate_hz: SAMPLE_RATE_HZ as f32, max_block: BLOCK, event_capacity: 4096 };
+    // Every event of a block waits in the queue until the block is processed: room for the
+    // busiest block of the song (4,097 notes at one instant are one block's).
+    let mut busiest = 0usize;
+    for block in events.chunk_by(|a, b| a.at_sample / BLOCK as u64 == b.at_sample / BLOCK as u64) {
+        busiest = busiest.max(block.len());
+    }
+    let event_capacity = busiest.max(4096);
+    let settings = EngineSettings { sample_rate_hz: SAMPLE_RATE_HZ as f32, max_block: BLOCK, event_capacity };
     let mut engine = Engine::new(kit, settings);
     let latency = engine.latency_samples() as u64;
     let last_event = events.last().map_or(0, |e| e.at_sample);

@@ -402,11 +402,11 @@ fn gmd_handful_is_sane() {
 }
 
 #[test]
-fn gmd_piano_roll_has_duration_times_60_frames_and_only_mapped_columns() {
+fn gmd_piano_roll_runs_a_second_past_the_last_note_and_has_only_mapped_columns() {
     let perf = gmd("drummer1/session2/5_jazz_200_beat_3-4.mid");
     let td = NoteMap::load("roland-td").unwrap();
     let roll = piano_roll(&perf, &td);
-    assert_eq!(roll.len(), (perf.duration_s * 60.0).round() as usize + 1);
+    assert_eq!(roll.len(), ((perf.notes_end_s + 1.0) * 60.0).round() as usize + 1);
     let mut want = std::collections::BTreeSet::new();
     let mut cells = std::collections::HashSet::new();
     for (note, t) in note_ons(&perf) {

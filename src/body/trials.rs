@@ -246,7 +246,7 @@ pub fn run_all(
     // Per thread: (job index, RMS error, physics steps, wall seconds) of each finished job.
     type Done = Vec<(usize, ErrorSums, u64, f64)>;
     let results: Vec<Result<Done, DrummerError>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..threads.max(1))
+        let handles: Vec<_> = (0..threads.clamp(1, jobs.len().max(1)))
             .map(|_| {
                 scope.spawn(|| {
                     let mut mine = Vec::new();

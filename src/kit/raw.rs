@@ -109,6 +109,17 @@ impl Check<'_> {
     }
 }
 
+/// Where a seated drummer can play, in the kit's frame (origin on the floor under the stool):
+/// a piece's nearest edge at most this far from the stool, horizontally, and its centre at
+/// most this high, m (an arm and a stick reach about 1 m from the shoulder).
+const MAX_REACH_M: f32 = 1.4;
+const MAX_HEIGHT_M: f32 = 2.2;
+/// The seated body: within this radius of the stool's axis, from the seat to the top of the
+/// head, no piece can be, m.
+const BODY_RADIUS_M: f32 = 0.15;
+const SEAT_HEIGHT_M: f32 = 0.5;
+const HEAD_TOP_M: f32 = 1.4;
+
 pub(super) fn parse(text: &str, path: &Path) -> Result<Kit, KitError> {
     let raw: RawKit =
         toml::from_str(text).map_err(|e| KitError::Parse { path: path.to_path_buf(), message: e.to_string() })?;
@@ -135,6 +146,30 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Kit, KitError> {
         };
         for (axis, v) in p.position_m.iter().enumerate() {
             c.range(&key(&format!("position_m[{axis}]")), *v, -3.0, 3.0)?;
+        }
+        let [x, y, z] = p.position_m;
+        let from_seat = x.hypot(y);
+        if z <= 0.0 {
+            return Err(c.fail(&key("position_m"), format!("is under the floor (z = {z} m; the floor is z = 0)")));
+        }
+        if from_seat - p.radius_m > MAX_REACH_M || z > MAX_HEIGHT_M {
+            return Err(c.fail(
+                &key("position_m"),
+                format!(
+                    "is out of the drummer's reach: its nearest edge is {:.2} m from the stool and its centre {z} m \
+                     high (at most {MAX_REACH_M} m and {MAX_HEIGHT_M} m)",
+                    (from_seat - p.radius_m).max(0.0)
+                ),
+            ));
+        }
+        if from_seat < BODY_RADIUS_M && z > SEAT_HEIGHT_M && z < HEAD_TOP_M {
+            return Err(c.fail(
+                &key("position_m"),
+                format!(
+                    "is inside the drummer: {from_seat:.2} m from the stool's axis at {z} m high (the body fills \
+                     {BODY_RADIUS_M} m around it from {SEAT_HEIGHT_M} m to {HEAD_TOP_M} m)"
+                ),
+            ));
         }
         let n = p.normal;
         let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();

@@ -37,21 +37,27 @@ pub fn column(note: u8) -> Option<usize> {
     NOTE_NUMS.iter().position(|&n| n == note)
 }
 
+/// How long the roll (and so the motion) runs on after the last note: the sticks rebound
+/// and the arms come to rest, seconds.
+pub const ROLL_TAIL_S: f64 = 1.0;
+
 /// The frame a time falls in: round(time_s * 60).
 pub fn frame_of(time_s: f64) -> usize {
     (time_s.max(0.0) * ROLL_FPS).round() as usize
 }
 
 /// Quantise the note-ons of `perf` at 60 fps through `map`. Frame t holds the onsets at
-/// times that round to t; the roll has frames 0 ..= round(duration_s * 60), so
-/// T = round(duration_s * 60) + 1. Notes the map does not know are skipped.
+/// times that round to t; the roll ends [`ROLL_TAIL_S`] after the last note
+/// (`perf.notes_end_s`), so T = round((notes_end_s + 1) * 60) + 1, whatever the file says
+/// after it: a track that ends hours after its last note (or pedal data that runs on) makes
+/// no longer a roll, and no longer a motion. Notes the map does not know are skipped.
 pub fn piano_roll(perf: &Performance, map: &NoteMap) -> PianoRoll {
-    let last = perf.events.last().map_or(0.0, |e| e.time_s);
-    let mut frames = vec![[false; 16]; frame_of(perf.duration_s.max(last)) + 1];
+    let mut frames = vec![[false; 16]; frame_of(perf.notes_end_s + ROLL_TAIL_S) + 1];
     for e in &perf.events {
         if let DrumEventKind::NoteOn { note, .. } = e.kind {
-            if let Some(col) = map.entry(note).and_then(|m| column(m.roll)) {
-                frames[frame_of(e.time_s)][col] = true;
+            let col = map.entry(note).and_then(|m| column(m.roll));
+            if let (Some(col), Some(row)) = (col, frames.get_mut(frame_of(e.time_s))) {
+                row[col] = true;
             }
         }
     }
@@ -93,7 +99,8 @@ mod tests {
             2.0,
         );
         let roll = piano_roll(&p, &td);
-        assert_eq!(roll.len(), 121);
+        // The last note ends at 2 s; a second of tail.
+        assert_eq!(roll.len(), 181);
         let mut cells = Vec::new();
         for (t, frame) in roll.frames.iter().enumerate() {
             cells.extend((0..16).filter(|&c| frame[c]).map(|c| (t, c)));
@@ -103,9 +110,9 @@ mod tests {
     }
 
     #[test]
-    fn empty_song_has_one_frame() {
+    fn empty_song_has_only_the_tail() {
         let roll = piano_roll(&perf(&[], 0.0), &NoteMap::builtin("gm").unwrap());
-        assert_eq!(roll.len(), 1);
+        assert_eq!(roll.len(), 61);
         assert!(roll.frames[0].iter().all(|x| !x));
     }
 }

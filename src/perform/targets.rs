@@ -11,7 +11,8 @@
 //!   under it is aimed radially out past its edge until it has come up beside it, so a
 //!   stick never gets caught under the hi-hat or a crash on its way to strike it, and one
 //!   over a cymbal goes out past its edge before it heads below it; targets keep the bead
-//!   clear of pieces not being struck, and the whole stick clear of drum heads and hoops.
+//!   clear of pieces not being struck, and the whole stick clear of drum heads and hoops
+//!   and of the cymbals it lies over.
 
 use crate::body::ik::ArmTarget;
 use crate::body::model::Surface;
@@ -179,6 +180,15 @@ impl TipTargets {
                 // A drum's head is solid under the whole shaft too: a stick held low beside
                 // a drum, pointing into it, is raised until the shaft clears the head.
                 let lift = self.shaft_points(target).filter_map(over).fold(0.0f32, f32::max);
+                target.tip += surface.normal * lift;
+            } else {
+                // A cymbal: a shaft lying over it, or level with its edge, is raised clear of
+                // it; one under it is the keep-out's.
+                let lift = self
+                    .shaft_points(target)
+                    .filter(|&p| surface.height(p) >= -self.bead_m)
+                    .filter_map(over)
+                    .fold(0.0f32, f32::max);
                 target.tip += surface.normal * lift;
             }
         }
@@ -360,5 +370,32 @@ mod tests {
         let mut target = ArmTarget { tip: below, dir: Vector::Y };
         t.keep_out(0, 1.0, &mut target, Vector::new(0.10, 0.0, 0.95), [(0, &hihat)], &[0]);
         assert!((target.tip.z - below.z).abs() < 1e-6 && target.tip.x >= reach - 1e-5);
+    }
+
+    #[test]
+    fn a_shaft_lying_on_a_cymbal_is_raised_clear_and_one_under_it_is_left_to_the_keep_out() {
+        let t = targets();
+        let ride = surface("ride", Vector::new(0.0, 0.0, 1.0), 0.25, 0.01);
+        let floor = 0.007 + TargetSettings::default().clearance_m;
+        let lowest = |target: &ArmTarget| {
+            (1..=SHAFT_SAMPLES)
+                .map(|k| target.tip - target.dir * (0.30 * k as f32 / SHAFT_SAMPLES as f32))
+                .filter(|p| (p.x * p.x + p.y * p.y).sqrt() <= 0.25)
+                .map(|p| p.z - 1.0)
+                .fold(f32::INFINITY, f32::min)
+        };
+        // The tip beyond the ride's edge, the stick sloping down across it: the shaft lies on
+        // the cymbal 5 mm above it.
+        let dir = Vector::new(1.0, 0.0, 0.02).normalize();
+        let mut target = ArmTarget { tip: Vector::new(0.30, 0.0, 1.005 + 0.02 * 0.30), dir };
+        assert!(lowest(&target) < floor);
+        t.clear(0, 1.0, &mut target, std::slice::from_ref(&ride), &[0]);
+        assert!(lowest(&target) >= floor - 1e-4, "shaft {} m above the ride", lowest(&target));
+        assert_eq!(target.dir, dir, "the stick keeps its angle; it is raised");
+        // A stick under the ride (on its way to a floor tom beneath) is not pulled up through it.
+        let under = ArmTarget { tip: Vector::new(0.30, 0.0, 0.95), dir };
+        let mut target = under;
+        t.clear(0, 1.0, &mut target, &[ride], &[0]);
+        assert_eq!(target.tip, under.tip);
     }
 }

@@ -128,10 +128,13 @@ impl WavSink {
     }
 }
 
-/// `dir/name.ext` -> `dir/.name.ext.partial`.
+/// `dir/name.ext` -> `dir/.name.ext.PID-N.partial`: unique to this process and call, so two
+/// renders of songs with the same name into one folder never write into each other's file.
 pub fn partial_path(path: &Path) -> PathBuf {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    path.with_file_name(format!(".{name}.partial"))
+    path.with_file_name(format!(".{name}.{}-{n}.partial", std::process::id()))
 }
 
 /// Write a whole file atomically (partial file, then rename).

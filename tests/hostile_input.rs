@@ -1,0 +1,173 @@
+//! Input a hostile user would try (issue "The stability suite, and no input that can hurt"):
+//! each test is named for a defect that input once caused, and fails on the code before its
+//! fix. A clear message and exit code 2, no panic, no abort, no unbounded memory.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn fresh_dir(tag: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn drumsim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_drumsim")).args(args).output().expect("run drumsim")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A standard MIDI file of one track (format 0, 480 ticks per quarter note).
+fn smf(track: &[u8]) -> Vec<u8> {
+    let mut f = b"MThd\x00\x00\x00\x06\x00\x00\x00\x01\x01\xE0MTrk".to_vec();
+    f.extend_from_slice(&(track.len() as u32).to_be_bytes());
+    f.extend_from_slice(track);
+    f
+}
+
+#[test]
+fn strokes_with_100000_threads_is_refused_instead_of_aborting() {
+    let o = drumsim(&["strokes", "--threads", "100000", "--trials", "1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--threads") && stderr(&o).contains("100000"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+}
+
+/// A well-formed file: one kick (note-on, note-off 96 ticks later), then End-of-Track 2^28 - 1
+/// ticks after that (77 hours at 120 bpm). 37 bytes.
+fn one_note_then_a_77_hour_track() -> Vec<u8> {
+    let f = smf(&[0x00, 0x99, 0x24, 0x64, 0x60, 0x89, 0x24, 0x00, 0xFF, 0xFF, 0xFF, 0x7F, 0xFF, 0x2F, 0x00]);
+    assert_eq!(f.len(), 37);
+    f
+}
+
+#[test]
+fn a_track_ending_77_hours_after_its_only_note_renders_a_short_motion_not_gigabytes() {
+    let dir = fresh_dir("long-track");
+    let song = dir.join("lonely.mid");
+    std::fs::write(&song, one_note_then_a_77_hour_track()).unwrap();
+    let out = dir.join("out");
+    let o = drumsim(&["render", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The piano roll, the hand model and the motion run a second past the last note.
+    let motion: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("lonely.motion.json")).unwrap()).unwrap();
+    let frames = motion["frames"].as_array().map_or(0, |f| f.len());
+    assert!(frames > 0 && frames <= 2 * 60, "{frames} motion frames");
+    for ext in ["wav", "bvh", "glb"] {
+        let len = std::fs::metadata(out.join(format!("lonely.{ext}"))).unwrap().len();
+        assert!(len < 8 << 20, "lonely.{ext}: {len} bytes");
+    }
+}
+
+#[test]
+fn four_thousand_and_ninety_seven_notes_at_one_instant_render_instead_of_overflowing_the_queue() {
+    let dir = fresh_dir("burst");
+    let mut track = Vec::new();
+    for i in 0..4097u32 {
+        // Snare, kick and hi-hat notes at tick 0.
+        track.extend_from_slice(&[0x00, 0x99, [38u8, 36, 42][i as usize % 3], 0x64]);
+    }
+    track.extend_from_slice(&[0x83, 0x60, 0x89, 38, 0x00, 0x00, 0xFF, 0x2F, 0x00]);
+    let song = dir.join("burst.mid");
+    std::fs::write(&song, smf(&track)).unwrap();
+    let out = dir.join("out");
+    let o = drumsim(&["render", song.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-motion"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("burst.contacts.json")).unwrap()).unwrap();
+    assert_eq!(json["contacts"].as_array().unwrap().len(), 4097);
+    assert!(std::fs::metadata(out.join("burst.wav")).unwrap().len() > 48_000);
+}
+
+#[test]
+fn a_note_77_hours_in_is_refused_before_anything_is_written_instead_of_a_4_gib_wav() {
+    let dir = fresh_dir("late-note");
+    // One kick 2^28 - 1 ticks in (77:40:20 at 120 bpm), its note-off 96 ticks later.
+    let track = [0xFF, 0xFF, 0xFF, 0x7F, 0x99, 0x24, 0x64, 0x60, 0x89, 0x24, 0x00, 0x00, 0xFF, 0x2F, 0x00];
+    let song = dir.join("late.mid");
+    std::fs::write(&song, smf(&track)).unwrap();
+    let out = dir.join("out");
+    let o = drumsim(&["render", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("late.mid") && e.contains("77:40:20") && e.contains("4:00:00"), "{e}");
+    assert!(!out.exists() || std::fs::read_dir(&out).unwrap().next().is_none(), "something was written");
+}
+
+#[test]
+fn two_songs_of_one_name_rendered_at_once_into_one_folder_do_not_mix_their_wavs() {
+    let dir = fresh_dir("same-name");
+    let gmd = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/gmd");
+    let songs = ["drummer1/session1/1_funk_80_beat_4-4.mid", "drummer1/session2/62_punk_144_beat_4-4.mid"];
+    // Each song alone, then both at once under the name take.mid, into one folder.
+    let mut alone = Vec::new();
+    let mut paths = Vec::new();
+    for (i, s) in songs.iter().enumerate() {
+        let sub = dir.join(format!("song{i}"));
+        std::fs::create_dir_all(&sub).unwrap();
+        let song = sub.join("take.mid");
+        std::fs::copy(gmd.join(s), &song).unwrap();
+        let out = sub.join("alone");
+        let args =
+            ["render", song.to_str().unwrap(), "--out", out.to_str().unwrap(), "--map", "roland-td", "--no-motion"];
+        assert!(drumsim(&args).status.success());
+        alone.push(std::fs::read(out.join("take.wav")).unwrap());
+        paths.push(song);
+    }
+    assert_ne!(alone[0], alone[1]);
+    let shared = dir.join("shared");
+    let children: Vec<_> = paths
+        .iter()
+        .map(|song| {
+            Command::new(env!("CARGO_BIN_EXE_drumsim"))
+                .args(["render", song.to_str().unwrap(), "--out", shared.to_str().unwrap()])
+                .args(["--map", "roland-td", "--no-motion"])
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for mut c in children {
+        assert!(c.wait().unwrap().success());
+    }
+    let wav = std::fs::read(shared.join("take.wav")).unwrap();
+    assert!(wav == alone[0] || wav == alone[1], "the WAV is neither song's alone");
+    let left: Vec<_> = std::fs::read_dir(&shared)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("partial"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
+
+#[test]
+fn a_snare_out_of_reach_under_the_floor_or_inside_the_drummer_is_refused_naming_it() {
+    let dir = fresh_dir("reach");
+    let song = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/demo/demo.mid");
+    let snare = "position_m = [-0.12, 0.42, 0.62]";
+    assert!(drumsim::kit::DEFAULT_KIT_TOML.contains(snare));
+    for (tag, at, says) in [
+        ("far", "[-0.12, 2.9, 0.62]", "out of the drummer's reach"),
+        ("floor", "[-0.12, 0.42, -0.1]", "under the floor"),
+        ("inside", "[0.0, 0.05, 1.0]", "inside the drummer"),
+    ] {
+        let kit = dir.join(format!("{tag}.toml"));
+        std::fs::write(&kit, drumsim::kit::DEFAULT_KIT_TOML.replacen(snare, &format!("position_m = {at}"), 1)).unwrap();
+        let out = dir.join(tag);
+        let o = drumsim(&[
+            "render",
+            song.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--kit",
+            kit.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{tag}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains(&format!("{tag}.toml")) && e.contains("(snare)") && e.contains(says), "{tag}: {e}");
+        assert!(!out.join("demo.wav").exists());
+    }
+}
