@@ -171,3 +171,32 @@ fn a_snare_out_of_reach_under_the_floor_or_inside_the_drummer_is_refused_naming_
         assert!(!out.join("demo.wav").exists());
     }
 }
+
+#[test]
+fn damaged_track_data_is_an_error_naming_the_track_and_byte_not_a_shorter_song() {
+    let dir = fresh_dir("damaged");
+    let kick = [0x00, 0x99, 0x24, 0x64];
+    let later_kick = [0x83, 0x60, 0x99, 0x24, 0x64, 0x60, 0x89, 0x24, 0x00];
+    let end = [0x00, 0xFF, 0x2F, 0x00];
+    let cases: [(&str, Vec<u8>); 3] = [
+        // A text meta event announcing 127 bytes where 5 remain.
+        ("meta-past-end", [&kick[..], &[0x00, 0xFF, 0x01, 0x7F], b"abcde"].concat()),
+        // A sysex whose length takes 5 bytes (a MIDI length has at most 4).
+        (
+            "five-byte-length",
+            [&kick[..], &[0x00, 0xF0, 0x81, 0x80, 0x80, 0x80, 0x00, 0xF7], &later_kick, &end].concat(),
+        ),
+        // End-of-Track in mid-track, the song going on after it.
+        ("early-end", [&kick[..], &end, &later_kick, &end].concat()),
+    ];
+    for (name, track) in cases {
+        let song = dir.join(format!("{name}.mid"));
+        std::fs::write(&song, smf(&track)).unwrap();
+        let out = dir.join(name);
+        let o = drumsim(&["render", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{name}: {e}");
+        assert!(e.contains(&format!("{name}.mid")) && e.contains("track 1") && e.contains("byte"), "{name}: {e}");
+        assert!(!out.join(format!("{name}.wav")).exists(), "{name}");
+    }
+}

@@ -10,8 +10,11 @@
 //!   (timecode) timing ignores tempo events. 29 fps means 29.97 (drop-frame).
 //! - A tempo of 0 or faster than 1000 BPM is an error ([`MidiError::Tempo`]), not clamped.
 //! - midly parses leniently (a chunk cut short, a missing track or a bad event silently
-//!   shortens the song), so the chunk layout and every event are checked here: a damaged file
-//!   is an error naming the file, never a shorter song.
+//!   shortens the song), so the chunk layout and every event are checked here, and midly runs
+//!   with its `strict` feature (a sysex or meta length past the track's end, a length of more
+//!   than 4 bytes, a data byte with its top bit set are errors); an End-of-Track with events
+//!   after it is an error too. A damaged file is an error naming the file, the track and the
+//!   byte, never a shorter song.
 
 use super::{DrumEvent, DrumEventKind, MidiError};
 use midly::{MetaMessage, MidiMessage, TrackEventKind};
@@ -283,7 +286,20 @@ impl TrackReader<'_> {
             };
             tick += u64::from(event.delta.as_int());
             let drum = match event.kind {
-                TrackEventKind::Meta(MetaMessage::EndOfTrack) => break,
+                TrackEventKind::Meta(MetaMessage::EndOfTrack) => {
+                    let after = iter.unread().len();
+                    if after > 0 {
+                        let message = format!(
+                            "track {}: End-of-Track at tick {tick}, byte {} of {} in the track, with {after} bytes \
+                             of events after it",
+                            index + 1,
+                            data.len() - after,
+                            data.len()
+                        );
+                        return Err(MidiError::Parse { path: self.path.to_path_buf(), message });
+                    }
+                    break;
+                }
                 TrackEventKind::Meta(MetaMessage::Tempo(us)) => {
                     self.items.push(Timed { tick, kind: Item::Tempo(us.as_int()) });
                     continue;
