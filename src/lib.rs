@@ -6,6 +6,7 @@
 
 pub mod body;
 pub mod eval;
+pub mod files;
 pub mod interaction;
 pub mod kit;
 pub mod live;

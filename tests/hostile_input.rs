@@ -20,6 +20,11 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// The bundled demo song.
+fn demo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/demo/demo.mid")
+}
+
 /// A standard MIDI file of one track (format 0, 480 ticks per quarter note).
 fn smf(track: &[u8]) -> Vec<u8> {
     let mut f = b"MThd\x00\x00\x00\x06\x00\x00\x00\x01\x01\xE0MTrk".to_vec();
@@ -146,7 +151,7 @@ fn two_songs_of_one_name_rendered_at_once_into_one_folder_do_not_mix_their_wavs(
 #[test]
 fn a_snare_out_of_reach_under_the_floor_or_inside_the_drummer_is_refused_naming_it() {
     let dir = fresh_dir("reach");
-    let song = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/demo/demo.mid");
+    let song = demo();
     let snare = "position_m = [-0.12, 0.42, 0.62]";
     assert!(drumsim::kit::DEFAULT_KIT_TOML.contains(snare));
     for (tag, at, says) in [
@@ -199,4 +204,38 @@ fn damaged_track_data_is_an_error_naming_the_track_and_byte_not_a_shorter_song()
         assert!(e.contains(&format!("{name}.mid")) && e.contains("track 1") && e.contains("byte"), "{name}: {e}");
         assert!(!out.join(format!("{name}.wav")).exists(), "{name}");
     }
+}
+
+#[test]
+fn a_kit_or_map_of_dev_zero_is_refused_at_4_mib_instead_of_read_until_memory_runs_out() {
+    let out = fresh_dir("dev-zero");
+    let song = demo();
+    for flag in ["--kit", "--map"] {
+        let o = drumsim(&["render", song.to_str().unwrap(), "--out", out.to_str().unwrap(), flag, "/dev/zero"]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{flag}: {e}");
+        assert!(e.contains("/dev/zero") && e.contains("4 MiB"), "{flag}: {e}");
+    }
+}
+
+#[test]
+fn a_kit_normal_of_1e30_is_a_direction_and_an_infinite_one_is_refused_as_not_one() {
+    let dir = fresh_dir("normal");
+    let snare = "normal = [0.15, -0.25, 0.96]";
+    assert!(drumsim::kit::DEFAULT_KIT_TOML.contains(snare));
+    let huge = dir.join("huge.toml");
+    std::fs::write(&huge, drumsim::kit::DEFAULT_KIT_TOML.replacen(snare, "normal = [1.5e29, -2.5e29, 9.6e29]", 1))
+        .unwrap();
+    let kit = drumsim::kit::Kit::load(&huge).unwrap();
+    let n = kit.piece("snare").unwrap().normal;
+    let len = (0.15f32 * 0.15 + 0.25 * 0.25 + 0.96 * 0.96).sqrt();
+    let want = [0.15 / len, -0.25 / len, 0.96 / len];
+    assert!(n.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-5), "{n:?}");
+    let inf = dir.join("inf.toml");
+    std::fs::write(&inf, drumsim::kit::DEFAULT_KIT_TOML.replacen(snare, "normal = [0.0, 0.0, inf]", 1)).unwrap();
+    let o =
+        drumsim(&["render", demo().to_str().unwrap(), "--out", dir.to_str().unwrap(), "--kit", inf.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("inf.toml") && e.contains("normal") && e.contains("not a direction"), "{e}");
 }

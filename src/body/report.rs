@@ -129,7 +129,8 @@ pub fn run_limits(from: Option<&Path>, kit: &Option<PathBuf>, out: &Path) -> any
     let traj = match from {
         Some(path) => {
             let bad = |message: String| TrajectoryError { path: path.to_path_buf(), message };
-            let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+            let text = crate::files::read_to_string_bounded(path, crate::files::MAX_DATA_BYTES)
+                .map_err(|e| bad(format!("cannot read: {e}")))?;
             let file: TrajectoryFile = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
             if file.joints.len() != super::skeleton::JOINTS {
                 return Err(

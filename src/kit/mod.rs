@@ -149,8 +149,8 @@ impl Kit {
         if let Some(kit) = path.to_str().and_then(Kit::builtin) {
             return Ok(kit);
         }
-        let text =
-            std::fs::read_to_string(path).map_err(|source| KitError::Read { path: path.to_path_buf(), source })?;
+        let text = crate::files::read_to_string_bounded(path, crate::files::MAX_CONFIG_BYTES)
+            .map_err(|source| KitError::Read { path: path.to_path_buf(), source })?;
         Kit::from_toml_str(&text, path)
     }
 

@@ -171,11 +171,13 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Kit, KitError> {
                 ),
             ));
         }
+        // Any finite direction, its length found in f64 (the squares of 1e30 overflow f32).
         let n = p.normal;
-        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let len = n.iter().map(|&x| f64::from(x) * f64::from(x)).sum::<f64>().sqrt();
         if !len.is_finite() || len < 1e-3 {
-            return Err(c.fail(&key("normal"), "must be a non-zero vector"));
+            return Err(c.fail(&key("normal"), format!("{n:?} is not a direction: it must be finite and not zero")));
         }
+        let n = n.map(|x| (f64::from(x) / len) as f32);
         let fundamental_hz = c.range(&key("fundamental_hz"), p.fundamental_hz, 20.0, 5000.0)?;
         let max_hz = c.range(&key("max_hz"), p.max_hz, fundamental_hz, 22_000.0)?;
         let wires = match p.wires {
@@ -194,7 +196,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Kit, KitError> {
         pieces.push(Piece {
             kind,
             position_m: p.position_m,
-            normal: [n[0] / len, n[1] / len, n[2] / len],
+            normal: n,
             radius_m: c.range(&key("radius_m"), p.radius_m, 0.01, 0.6)?,
             fundamental_hz,
             decay_s: c.range(&key("decay_s"), p.decay_s, 0.01, 60.0)?,

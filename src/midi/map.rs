@@ -189,10 +189,12 @@ impl NoteMap {
             return Ok(map);
         }
         let path = Path::new(name_or_path);
-        let text = std::fs::read_to_string(path).map_err(|source| MapError::NotFound {
-            name: name_or_path.to_string(),
-            builtins: BUILTIN_MAPS.map(|(n, _)| n).join(", "),
-            source,
+        let text = crate::files::read_to_string_bounded(path, crate::files::MAX_CONFIG_BYTES).map_err(|source| {
+            MapError::NotFound {
+                name: name_or_path.to_string(),
+                builtins: BUILTIN_MAPS.map(|(n, _)| n).join(", "),
+                source,
+            }
         })?;
         NoteMap::from_toml_str(&text, path)
     }

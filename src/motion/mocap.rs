@@ -122,7 +122,8 @@ impl MocapTake {
 /// Load a mocap file. `map` translates MIDI notes that are not DRUMS roll notes (None: they
 /// are errors).
 pub fn load_mocap(path: &Path, names: &JointNames, map: Option<&NoteMap>) -> Result<MocapTake, MocapError> {
-    let text = std::fs::read_to_string(path).map_err(|source| MocapError::Read { path: path.to_path_buf(), source })?;
+    let text = crate::files::read_to_string_bounded(path, crate::files::MAX_DATA_BYTES)
+        .map_err(|source| MocapError::Read { path: path.to_path_buf(), source })?;
     parse_mocap(&text, path, names, map)
 }
 
