@@ -251,7 +251,11 @@ impl std::fmt::Display for RenderReport {
             self.contacts,
             self.wav.display(),
             self.contacts_json.display()
-        )
+        )?;
+        if self.non_finite_samples > 0 {
+            write!(f, "; {} non-finite samples were silenced", self.non_finite_samples)?;
+        }
+        Ok(())
     }
 }
 
@@ -580,4 +584,25 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
         contacts: score.contacts.contacts.len(),
         non_finite_samples: non_finite,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_summary_counts_non_finite_samples_only_when_there_are_some() {
+        let report = |n| RenderReport {
+            wav: "out/a.wav".into(),
+            contacts_json: "out/a.contacts.json".into(),
+            audio_s: 1.0,
+            wall_s: 0.1,
+            contacts: 2,
+            non_finite_samples: n,
+            motion: None,
+            physical: None,
+        };
+        assert!(!report(0).to_string().contains("non-finite"));
+        assert!(report(3).to_string().ends_with("; 3 non-finite samples were silenced"), "{}", report(3));
+    }
 }
