@@ -342,4 +342,12 @@ fn the_physical_demo_sounds_like_the_direct_one_note_by_note() {
     assert!(s.onset_within_2ms >= 0.85 && s.onset_p95_abs_ms <= 3.5, "{s:?}");
     // A choke in the song chokes the crash in both renders.
     assert_eq!(physical.contacts.chokes.len(), direct.contacts.chokes.len());
+    // Every stick contact on the snare's hoop rings on its own (a hoop contact's point once
+    // lay outside the plate that sounds the hoop, and made no sound).
+    let rims: Vec<_> = physical.contacts.contacts.iter().filter(|c| c.contact.piece == "snare_rim").collect();
+    assert!(!rims.is_empty());
+    for c in rims {
+        let t0 = c.contact.time_s as f64 - 0.02;
+        assert!(drumsim::eval::note_sound::sound(&kit, &[c], &[], t0).unwrap().is_some(), "silent: {c:?}");
+    }
 }

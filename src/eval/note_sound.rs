@@ -10,6 +10,7 @@ use crate::interaction::Message;
 use crate::kit::Kit;
 use crate::render::{ContactRecord, ContactsFile, HiHatRecord, NoteRef};
 use crate::sound::{Engine, EngineSettings, SoundEvent};
+use std::collections::HashMap;
 
 const SAMPLE_RATE_HZ: f32 = 48_000.0;
 /// The sound starts this long after the window opens; strikes this early are still in it.
@@ -36,36 +37,42 @@ pub struct NoteSound {
 /// Every note that both renders sounded, compared. Notes either render left silent are
 /// not compared (recall and precision count those).
 pub fn compare(kit: &Kit, reference: &ContactsFile, other: &ContactsFile) -> anyhow::Result<Vec<NoteSound>> {
-    let key = |n: &NoteRef| (n.note, (n.time_s * 1e6).round() as i64);
-    let mut of_other: std::collections::HashMap<_, Vec<&ContactRecord>> = Default::default();
-    for c in &other.contacts {
-        if let Some(n) = &c.note {
-            of_other.entry(key(n)).or_default().push(c);
-        }
-    }
-    let mut done = std::collections::HashSet::new();
+    let (ours, _) = by_note(reference);
+    let (theirs, index) = by_note(other);
     let mut out = Vec::new();
-    for c in &reference.contacts {
-        let Some(note) = c.note else { continue };
-        if !done.insert(key(&note)) {
-            continue;
-        }
-        let Some(theirs) = of_other.get(&key(&note)) else { continue };
-        let ours: Vec<&ContactRecord> =
-            reference.contacts.iter().filter(|r| r.note.map(|n| key(&n)) == Some(key(&note))).collect();
+    for (note, strikes) in &ours {
+        let Some(&i) = index.get(&(note.note, note.time_s.to_bits())) else { continue };
         let t0 = note.time_s - LEAD_S;
-        let (Some(a), Some(b)) = (sound(kit, &ours, &reference.hihat, t0)?, sound(kit, theirs, &other.hihat, t0)?)
-        else {
-            continue;
-        };
+        let a = sound(kit, strikes, &reference.hihat, t0)?;
+        let b = sound(kit, &theirs[i].1, &other.hihat, t0)?;
+        let (Some(a), Some(b)) = (a, b) else { continue };
         out.push(NoteSound {
-            note,
-            piece: c.contact.piece.clone(),
+            note: *note,
+            piece: strikes[0].contact.piece.clone(),
             onset_diff_ms: (b.0 - a.0) * 1e3,
             level_diff_db: b.1 - a.1,
         });
     }
     Ok(out)
+}
+
+/// A note and the contacts that played it.
+type NoteStrikes<'a> = (NoteRef, Vec<&'a ContactRecord>);
+
+/// A render's contacts by the note they played, in the order of their first contact, and
+/// each note's index by (note, onset).
+fn by_note(file: &ContactsFile) -> (Vec<NoteStrikes<'_>>, HashMap<(u8, u64), usize>) {
+    let mut notes: Vec<NoteStrikes> = Vec::new();
+    let mut index = HashMap::new();
+    for c in &file.contacts {
+        let Some(n) = c.note else { continue };
+        let i = *index.entry((n.note, n.time_s.to_bits())).or_insert_with(|| {
+            notes.push((n, Vec::new()));
+            notes.len() - 1
+        });
+        notes[i].1.push(c);
+    }
+    (notes, index)
 }
 
 /// The onset (seconds, in the song's time) and level (dB) of `strikes` sounded alone from

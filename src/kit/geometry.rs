@@ -80,12 +80,13 @@ pub(crate) fn norm(a: [f32; 3]) -> f32 {
     dot(a, a).sqrt()
 }
 
+/// `a` scaled to unit length; straight up for a zero vector.
 pub(crate) fn normalize(a: [f32; 3]) -> [f32; 3] {
     let n = norm(a);
     if n > 1e-9 {
         a.map(|x| x / n)
     } else {
-        a
+        [0.0, 0.0, 1.0]
     }
 }
 

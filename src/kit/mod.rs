@@ -1,7 +1,7 @@
 //! The kit: where each piece is (for the body) and how it sounds (for the synthesizer).
 //! Raw TOML (serde) is validated once into [`Kit`]; errors name the file, the key and the range.
 
-mod geometry;
+pub(crate) mod geometry;
 mod raw;
 
 use std::path::{Path, PathBuf};

@@ -240,28 +240,14 @@ pub fn hand_notes(perf: &Performance, map: &NoteMap, kit: &Kit) -> Result<(Vec<H
 /// Where a zone of a piece is struck (the kit's geometry, shared with the body and direct mode).
 pub use crate::kit::strike_point;
 
-pub(crate) fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-pub(crate) fn norm(a: [f32; 3]) -> f32 {
-    dot(a, a).sqrt()
-}
-
-pub(crate) fn normalize(a: [f32; 3]) -> [f32; 3] {
-    let n = norm(a);
-    if n > 1e-9 {
-        a.map(|x| x / n)
-    } else {
-        [0.0, 0.0, 1.0]
-    }
-}
+pub(crate) use crate::kit::geometry::{norm, normalize};
 
 pub use crate::rng::Rng;
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kit::geometry::dot;
 
     #[test]
     fn strike_points_lie_in_the_piece_plane_at_the_zone_radius() {

@@ -261,7 +261,10 @@ mod tests {
             let track = hand_track(LEFT, &refs, &[], &kit, 120, &mut Rng::new(1));
             let heights: Vec<f32> = track
                 .iter()
-                .map(|p| super::super::dot(p.stick_tip(), n[0].normal) - super::super::dot(n[0].point, n[0].normal))
+                .map(|p| {
+                    crate::kit::geometry::dot(p.stick_tip(), n[0].normal)
+                        - crate::kit::geometry::dot(n[0].point, n[0].normal)
+                })
                 .collect();
             assert!(heights.iter().all(|&h| h > -1e-4), "tip below the head");
             apex.push(heights[31..90].iter().cloned().fold(0.0, f32::max));
