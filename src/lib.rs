@@ -12,6 +12,7 @@ pub mod kit;
 pub mod live;
 pub mod midi;
 pub mod motion;
+pub mod outputs;
 pub mod perform;
 pub mod render;
 pub mod rng;

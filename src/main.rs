@@ -191,6 +191,9 @@ enum ModeArg {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if let Err(e) = drumsim::outputs::remove_partials_on_interrupt() {
+        eprintln!("drumsim: warning: cannot catch Ctrl-C ({e}); an interrupted render may leave .partial files");
+    }
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
@@ -229,7 +232,7 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::motion::hands::HandsError>()
             || e.is::<drumsim::motion::mocap::MocapError>()
             || e.is::<drumsim::motion::pipeline::MotionError>()
-            || e.is::<drumsim::motion::export::ExportError>()
+            || e.downcast_ref::<drumsim::motion::export::ExportError>().is_some_and(|e| !e.is_io())
             || e.is::<drumsim::eval::report::EvalError>()
             || e.is::<drumsim::eval::motion::MotionMetricError>()
     });

@@ -7,7 +7,8 @@ use crate::interaction::transport::{self, PacketReceiver, PacketSender};
 use crate::interaction::{decode, encode, Message};
 use crate::kit::Kit;
 use crate::midi::{read_file, DrumEventKind, NoteMap, Performance, ReadOptions};
-use crate::sound::wav::{write_atomically, WavSink};
+use crate::outputs::{write_synced, OutputSet};
+use crate::sound::wav::WavSink;
 use crate::sound::{Engine, EngineSettings, SoundEvent};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -82,6 +83,14 @@ pub enum RenderInputError {
     TooLong { path: PathBuf, last_note_s: f64 },
     #[error(transparent)]
     Direct(#[from] DirectError),
+}
+
+/// A render's output could not be written (exit code 1: a full disk, a read-only folder).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write {}: {source}; nothing was published", .path.display())]
+pub struct WriteError {
+    pub path: PathBuf,
+    pub source: std::io::Error,
 }
 
 /// The MIDI note a contact came from.
@@ -199,11 +208,12 @@ pub fn stage_motion(perf: &Performance, kit: &Kit, map: &NoteMap, hands: &Hands)
     Ok(Staged { planned, hands_from, seconds: started.elapsed().as_secs_f64() })
 }
 
-/// Write a staged motion's exports (SONG.motion.json, .bvh, .glb).
-pub fn write_motion(staged: &Staged, out_dir: &Path, stem: &str) -> anyhow::Result<MotionOutput> {
+/// Write a staged motion's exports (SONG.motion.json, .bvh, .glb) under partial names of
+/// `set`, to be published with the rest of the render.
+pub fn stage_motion_files(staged: &Staged, out_dir: &Path, stem: &str, set: &mut OutputSet) -> anyhow::Result<MotionOutput> {
     use crate::motion::{export, rig::Rig};
     let started = Instant::now();
-    let paths = export::write_all(&staged.planned.motion, &Rig::default(), out_dir, stem)?;
+    let paths = export::stage_all(&staged.planned.motion, &Rig::default(), out_dir, stem, set)?;
     Ok(MotionOutput {
         paths,
         hands_from: staged.hands_from.clone(),
@@ -537,10 +547,21 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
             (score, None, Some(staged).filter(|_| opts.motion), Some(summary))
         }
     };
+    let staged = match (staged, hands) {
+        (Some(staged), _) => Some(staged),
+        (None, Some((hands, perf))) => Some(stage_motion(&perf, &kit, &map, &hands)?),
+        (None, None) => None,
+    };
     std::fs::create_dir_all(&opts.out_dir)
         .map_err(|e| anyhow::anyhow!("cannot create output directory {}: {e}", opts.out_dir.display()))?;
+    // Every file goes under a partial name first; the set is published whole at the end, so
+    // a failure anywhere leaves the folder as it was.
+    let mut set = OutputSet::new();
     let wav_path = opts.out_dir.join(format!("{stem}.wav"));
     let json_path = opts.out_dir.join(format!("{stem}.contacts.json"));
+    let json = serde_json::to_vec_pretty(&score.contacts)?;
+    write_synced(&set.stage(&json_path), &json).map_err(|e| WriteError { path: json_path.clone(), source: e })?;
+    let motion = staged.map(|s| stage_motion_files(&s, &opts.out_dir, &stem, &mut set)).transpose()?;
     let total = ((score.duration_s + 2.0) * SAMPLE_RATE_HZ as f64) as u64;
     let bar = if opts.progress { indicatif::ProgressBar::new(total) } else { indicatif::ProgressBar::hidden() };
     bar.set_style(
@@ -548,32 +569,22 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
             .expect("valid progress template")
             .progress_chars("=> "),
     );
-    let mut wav = WavSink::create(&wav_path, SAMPLE_RATE_HZ)
-        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", wav_path.display()))?;
+    let wav_error = |e: hound::Error| match e {
+        hound::Error::IoError(source) => WriteError { path: wav_path.clone(), source },
+        other => WriteError { path: wav_path.clone(), source: std::io::Error::other(other.to_string()) },
+    };
+    let mut wav = WavSink::create(&set.stage(&wav_path), SAMPLE_RATE_HZ).map_err(wav_error)?;
     let result = render_events(
         &kit,
         &score.events,
         score.duration_s,
-        |l, r| Ok(wav.write(l, r)?),
+        |l, r| Ok(wav.write(l, r).map_err(wav_error)?),
         |n| bar.set_position(n.min(total)),
     );
     bar.finish_and_clear();
-    let (samples, non_finite) = match result {
-        Ok(r) => r,
-        Err(e) => {
-            wav.abandon();
-            return Err(e);
-        }
-    };
-    let wav_path = wav.finish().map_err(|e| anyhow::anyhow!("cannot finish {}: {e}", wav_path.display()))?;
-    let json = serde_json::to_vec_pretty(&score.contacts)?;
-    write_atomically(&json_path, &json).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", json_path.display()))?;
-    let staged = match (staged, hands) {
-        (Some(staged), _) => Some(staged),
-        (None, Some((hands, perf))) => Some(stage_motion(&perf, &kit, &map, &hands)?),
-        (None, None) => None,
-    };
-    let motion = staged.map(|s| write_motion(&s, &opts.out_dir, &stem)).transpose()?;
+    let (samples, non_finite) = result?;
+    wav.finish().map_err(wav_error)?;
+    set.publish()?;
     Ok(RenderReport {
         motion,
         physical,

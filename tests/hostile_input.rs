@@ -239,3 +239,97 @@ fn a_kit_normal_of_1e30_is_a_direction_and_an_infinite_one_is_refused_as_not_one
     assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(e.contains("inf.toml") && e.contains("normal") && e.contains("not a direction"), "{e}");
 }
+
+/// Files in `dir`, sorted, with their lengths.
+fn listing(dir: &Path) -> Vec<(String, u64)> {
+    let mut v: Vec<(String, u64)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (e.file_name().to_string_lossy().into_owned(), e.metadata().unwrap().len())
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// A short song of a few snare notes, rendered as `groove` into `out`: the older set.
+fn older_set(dir: &Path, out: &Path) {
+    let mut track = Vec::new();
+    for _ in 0..4 {
+        track.extend_from_slice(&[0x00, 0x99, 38, 0x50, 0x83, 0x60, 0x89, 38, 0x00]);
+    }
+    track.extend_from_slice(&[0x00, 0xFF, 0x2F, 0x00]);
+    let song = dir.join("older").join("groove.mid");
+    std::fs::create_dir_all(song.parent().unwrap()).unwrap();
+    std::fs::write(&song, smf(&track)).unwrap();
+    let o = drumsim(&["render", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn a_render_whose_motion_export_hits_a_full_disk_publishes_nothing_and_exits_1() {
+    let dir = fresh_dir("full-disk");
+    // The sizes of the demo's files decide where the limit falls: the contacts and the glb
+    // fit, the BVH (written next) does not.
+    let probe = dir.join("probe");
+    let o = drumsim(&["render", demo().to_str().unwrap(), "--sound", "direct", "--out", probe.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let size = |ext: &str| std::fs::metadata(probe.join(format!("demo.{ext}"))).unwrap().len();
+    let (contacts, glb, bvh) = (size("contacts.json"), size("glb"), size("bvh"));
+    assert!(contacts < glb && glb < bvh, "{contacts} {glb} {bvh}");
+    let limit_kib = (glb + bvh) / 2 / 1024;
+
+    let out = dir.join("out");
+    older_set(&dir, &out);
+    let before = listing(&out);
+    assert_eq!(before.len(), 5, "{before:?}");
+    let song = dir.join("groove.mid");
+    std::fs::copy(demo(), &song).unwrap();
+    // A file-size limit is a full disk to the writer (EFBIG); SIGXFSZ is ignored, as a
+    // shell's trap leaves it for the program it starts.
+    let script = format!(
+        "trap '' XFSZ; ulimit -f {limit_kib}; exec '{}' render '{}' --sound direct --out '{}'",
+        env!("CARGO_BIN_EXE_drumsim"),
+        song.display(),
+        out.display()
+    );
+    let o = Command::new("bash").args(["-c", &script]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains(&out.join("groove.bvh").display().to_string()), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    assert_eq!(listing(&out), before, "the older set must stand whole, with no partial file");
+}
+
+#[test]
+fn ctrl_c_during_a_render_removes_its_partial_files_and_publishes_nothing() {
+    let dir = fresh_dir("ctrl-c");
+    let out = dir.join("out");
+    older_set(&dir, &out);
+    let before = listing(&out);
+    // Half an hour of quarter-note snares: the WAV is written for seconds.
+    let mut track = Vec::new();
+    for _ in 0..3600 {
+        track.extend_from_slice(&[0x00, 0x99, 38, 0x50, 0x83, 0x60, 0x89, 38, 0x00]);
+    }
+    track.extend_from_slice(&[0x00, 0xFF, 0x2F, 0x00]);
+    let song = dir.join("groove.mid");
+    std::fs::write(&song, smf(&track)).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_drumsim"))
+        .args(["render", song.to_str().unwrap(), "--sound", "direct", "--out", out.to_str().unwrap()])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    let is_partial_wav = |(name, _): &(String, u64)| name.starts_with(".groove.wav.") && name.ends_with(".partial");
+    while !listing(&out).iter().any(is_partial_wav) {
+        assert!(started.elapsed().as_secs() < 120, "no partial WAV appeared: {:?}", listing(&out));
+        assert!(child.try_wait().unwrap().is_none(), "the render ended before it could be interrupted");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let _ = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
+    assert_eq!(listing(&out), before, "no partial left, the older set untouched");
+}

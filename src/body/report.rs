@@ -105,7 +105,7 @@ fn write_traces(kit: &Kit, settings: &DrummerSettings, modes: &[Mode], path: &Pa
             out.entry(style.name()).or_default().insert(mode.name(), trace);
         }
     }
-    crate::sound::wav::write_atomically(path, serde_json::to_string(&out)?.as_bytes())?;
+    crate::outputs::write_atomically(path, serde_json::to_string(&out)?.as_bytes())?;
     Ok(())
 }
 
@@ -150,6 +150,6 @@ pub fn run_limits(from: Option<&Path>, kit: &Option<PathBuf>, out: &Path) -> any
         path: from.map_or_else(|| PathBuf::from("(kinematic drumming)"), Path::to_path_buf),
         message: e.to_string(),
     })?;
-    crate::sound::wav::write_atomically(out, serde_json::to_string_pretty(&limits)?.as_bytes())?;
+    crate::outputs::write_atomically(out, serde_json::to_string_pretty(&limits)?.as_bytes())?;
     Ok(())
 }

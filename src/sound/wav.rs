@@ -1,5 +1,6 @@
-//! WAV output: 48 kHz stereo, 24-bit PCM, written to a `.partial` file and renamed into place
-//! only when complete, so a failed render never leaves a WAV that looks finished.
+//! WAV output: 48 kHz stereo, 24-bit PCM, streamed to a file. A render writes it under a
+//! partial name of its output set ([`crate::outputs::OutputSet`]), so a failed render never
+//! leaves a WAV that looks finished.
 //!
 //! The writer packs each block's samples into one reused byte buffer; the file is byte for
 //! byte what hound writes for this spec (WAVE_FORMAT_EXTENSIBLE, 24 bits in 3 bytes), and
@@ -7,12 +8,10 @@
 
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 pub struct WavSink {
     file: BufWriter<File>,
-    partial: PathBuf,
-    path: PathBuf,
     data_bytes: u64,
     bytes: Vec<u8>,
 }
@@ -72,11 +71,11 @@ fn to_i24(x: f32) -> i32 {
 }
 
 impl WavSink {
+    /// Create `path` (it is written in place: stage it in an output set).
     pub fn create(path: &Path, sample_rate_hz: u32) -> Result<WavSink, hound::Error> {
-        let partial = partial_path(path);
-        let mut file = BufWriter::new(File::create(&partial)?);
+        let mut file = BufWriter::new(File::create(path)?);
         file.write_all(&header(sample_rate_hz))?;
-        Ok(WavSink { file, partial, path: path.to_path_buf(), data_bytes: 0, bytes: Vec::new() })
+        Ok(WavSink { file, data_bytes: 0, bytes: Vec::new() })
     }
 
     pub fn write(&mut self, left: &[f32], right: &[f32]) -> Result<(), hound::Error> {
@@ -108,40 +107,17 @@ impl WavSink {
         Ok(())
     }
 
-    /// Finish the file and move it into place.
-    pub fn finish(mut self) -> Result<PathBuf, hound::Error> {
+    /// Fill in the lengths and sync the file to disk.
+    pub fn finish(mut self) -> Result<(), hound::Error> {
         let data = self.data_bytes as u32;
         self.file.seek(SeekFrom::Start(4))?;
         self.file.write_all(&(data + DATA_LEN_OFFSET as u32 - 4).to_le_bytes())?;
         self.file.seek(SeekFrom::Start(DATA_LEN_OFFSET))?;
         self.file.write_all(&data.to_le_bytes())?;
-        self.file.flush()?;
-        drop(self.file);
-        std::fs::rename(&self.partial, &self.path)?;
-        Ok(self.path)
+        let file = self.file.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        Ok(())
     }
-
-    /// Give up: remove the partial file.
-    pub fn abandon(self) {
-        drop(self.file);
-        let _ = std::fs::remove_file(&self.partial);
-    }
-}
-
-/// `dir/name.ext` -> `dir/.name.ext.PID-N.partial`: unique to this process and call, so two
-/// renders of songs with the same name into one folder never write into each other's file.
-pub fn partial_path(path: &Path) -> PathBuf {
-    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    path.with_file_name(format!(".{name}.{}-{n}.partial", std::process::id()))
-}
-
-/// Write a whole file atomically (partial file, then rename).
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let partial = partial_path(path);
-    std::fs::write(&partial, bytes)?;
-    std::fs::rename(&partial, path)
 }
 
 /// Read a WAV written by [`WavSink`] back as (left, right) in -1..1.

@@ -7,7 +7,7 @@
 //! `End Site` at the bone's tip. The root's OFFSET is zero and its position channels hold
 //! its absolute position; the rest pose is the rig's (every rotation zero).
 
-use super::{write_atomic, y_up, y_up_rot, Baked, ExportError};
+use super::{write_file, write_one, y_up, y_up_rot, Baked, ExportError};
 use crate::motion::rig::Rig;
 use crate::motion::track::Motion;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -18,13 +18,14 @@ const CM: f32 = 100.0;
 
 /// Write the BVH of `motion` through `rig` to `path`.
 pub fn write(motion: &Motion, rig: &Rig, path: &Path) -> Result<(), ExportError> {
-    write_baked(&Baked::new(motion, rig)?, path)
+    let baked = Baked::new(motion, rig)?;
+    write_one(path, |partial| write_baked(&baked, partial))
 }
 
-/// Write already-solved motion to `path`.
+/// Write already-solved motion to `path` as it is (a partial name of an output set).
 pub fn write_baked(baked: &Baked, path: &Path) -> Result<(), ExportError> {
     let rig = baked.rig;
-    write_atomic(path, |w: &mut dyn Write| {
+    write_file(path, |w: &mut dyn Write| {
         writeln!(w, "HIERARCHY")?;
         write_joint(w, rig, 0, 0)?;
         writeln!(w, "MOTION")?;

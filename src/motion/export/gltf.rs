@@ -8,7 +8,7 @@
 //! Axes are glTF's (Y-up, the drummer facing +Z), metres. Written by hand: a JSON chunk and
 //! a BIN chunk, every buffer view 4-byte aligned.
 
-use super::{write_atomic, y_up, y_up_rot, Baked, ExportError};
+use super::{write_file, write_one, y_up, y_up_rot, Baked, ExportError};
 use crate::motion::rig::Rig;
 use crate::motion::track::Motion;
 use nalgebra::Vector3;
@@ -23,13 +23,14 @@ const ELEMENT_ARRAY_BUFFER: u32 = 34963;
 
 /// Write the glTF binary of `motion` through `rig` to `path`.
 pub fn write(motion: &Motion, rig: &Rig, path: &Path) -> Result<(), ExportError> {
-    write_baked(&Baked::new(motion, rig)?, path)
+    let baked = Baked::new(motion, rig)?;
+    write_one(path, |partial| write_baked(&baked, partial))
 }
 
-/// Write already-solved motion to `path`.
+/// Write already-solved motion to `path` as it is (a partial name of an output set).
 pub fn write_baked(baked: &Baked, path: &Path) -> Result<(), ExportError> {
     let glb = build(baked);
-    write_atomic(path, |w: &mut dyn Write| w.write_all(&glb))
+    write_file(path, |w: &mut dyn Write| w.write_all(&glb))
 }
 
 /// The binary buffer and the views and accessors into it.

@@ -30,7 +30,7 @@
 //! plus the rotated stick), which the rig's hands meet wherever the arms reach. Numbers are
 //! rounded to 10 micrometres, 1e-6 for rotations and 1e-4 for weights.
 
-use super::{write_atomic, Baked, ExportError};
+use super::{write_file, write_one, Baked, ExportError};
 use crate::motion::rig::Rig;
 use crate::motion::track::{Motion, ARKIT_NAMES};
 use serde::Serialize;
@@ -39,7 +39,8 @@ use std::path::Path;
 
 /// Write the motion JSON of `motion` through `rig` to `path`.
 pub fn write(motion: &Motion, rig: &Rig, path: &Path) -> Result<(), ExportError> {
-    write_baked(&Baked::new(motion, rig)?, path)
+    let baked = Baked::new(motion, rig)?;
+    write_one(path, |partial| write_baked(&baked, partial))
 }
 
 #[derive(Serialize)]
@@ -69,7 +70,7 @@ fn round(x: impl Into<f64>, per_unit: f64) -> f64 {
     }
 }
 
-/// Write already-solved motion to `path`.
+/// Write already-solved motion to `path` as it is (a partial name of an output set).
 pub fn write_baked(baked: &Baked, path: &Path) -> Result<(), ExportError> {
     let rig = baked.rig;
     let bones: Vec<BoneEntry> = rig
@@ -77,7 +78,7 @@ pub fn write_baked(baked: &Baked, path: &Path) -> Result<(), ExportError> {
         .iter()
         .map(|b| BoneEntry { name: &b.name, parent: b.parent, offset: b.offset.map(|x| round(x, 1e5)).into() })
         .collect();
-    write_atomic(path, |w: &mut dyn Write| {
+    write_file(path, |w: &mut dyn Write| {
         write!(w, "{{\"format\":\"drumsim-motion\",\"version\":1,\"fps\":{},\"bones\":", baked.motion.fps)?;
         serde_json::to_writer(&mut *w, &bones)?;
         write!(w, ",\"face_names\":")?;

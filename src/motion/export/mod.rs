@@ -2,8 +2,9 @@
 //! project's own format, kit frame), `SONG.bvh` and `SONG.glb` (Y-up, for animation tools
 //! and game engines).
 //!
-//! Every file is written to a temporary name in the same folder and renamed into place, so
-//! a failure never leaves a half-written file under the final name.
+//! Every file is written under a partial name in the same folder and moved into place with
+//! the rest of its set ([`crate::outputs::OutputSet`]), so a failure never leaves a
+//! half-written file, or a mix of new and old files, under the final names.
 //!
 //! BVH and glTF are Y-up: a kit point (x, y, z) becomes (-x, z, y), so +Y is up, the drummer
 //! faces +Z and their left is +X (the CMU / glTF convention); a rotation keeps its w and
@@ -17,6 +18,7 @@ use super::body_ik;
 use super::rig::{BodyPose, Rig};
 use super::track::Motion;
 use nalgebra::{UnitQuaternion, Vector3};
+use crate::outputs::OutputSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -38,18 +40,50 @@ pub struct Paths {
     pub glb: PathBuf,
 }
 
-/// Write `DIR/SONG.motion.json`, `DIR/SONG.bvh` and `DIR/SONG.glb`, solving the IK once.
+/// Write `DIR/SONG.motion.json`, `DIR/SONG.bvh` and `DIR/SONG.glb`, solving the IK once,
+/// and publish the three together.
 pub fn write_all(motion: &Motion, rig: &Rig, dir: &Path, song: &str) -> Result<Paths, ExportError> {
+    let mut set = OutputSet::new();
+    let paths = stage_all(motion, rig, dir, song, &mut set)?;
+    set.publish().map_err(|e| ExportError::Io { path: e.target, source: e.source })?;
+    Ok(paths)
+}
+
+/// Write the three files of [`write_all`] under partial names of `set`, for the caller to
+/// publish with the rest of its outputs.
+pub fn stage_all(motion: &Motion, rig: &Rig, dir: &Path, song: &str, set: &mut OutputSet) -> Result<Paths, ExportError> {
     let baked = Baked::new(motion, rig)?;
     let paths = Paths {
         json: dir.join(format!("{song}.motion.json")),
         bvh: dir.join(format!("{song}.bvh")),
         glb: dir.join(format!("{song}.glb")),
     };
-    json::write_baked(&baked, &paths.json)?;
-    bvh::write_baked(&baked, &paths.bvh)?;
-    gltf::write_baked(&baked, &paths.glb)?;
+    gltf::write_baked(&baked, &set.stage(&paths.glb)).map_err(|e| e.for_target(&paths.glb))?;
+    bvh::write_baked(&baked, &set.stage(&paths.bvh)).map_err(|e| e.for_target(&paths.bvh))?;
+    json::write_baked(&baked, &set.stage(&paths.json)).map_err(|e| e.for_target(&paths.json))?;
     Ok(paths)
+}
+
+impl ExportError {
+    /// An I/O error on a partial file, told under the name the user asked for.
+    fn for_target(self, target: &Path) -> ExportError {
+        match self {
+            ExportError::Io { source, .. } => ExportError::Io { path: target.to_path_buf(), source },
+            other => other,
+        }
+    }
+
+    /// True for a failure of the disk or the folder (exit 1), false for bad motion (exit 2).
+    pub fn is_io(&self) -> bool {
+        matches!(self, ExportError::Io { .. })
+    }
+}
+
+/// Write one file alone, atomically: a partial name, then moved into place.
+fn write_one(path: &Path, write: impl FnOnce(&Path) -> Result<(), ExportError>) -> Result<(), ExportError> {
+    let mut set = OutputSet::new();
+    write(&set.stage(path)).map_err(|e| e.for_target(path))?;
+    set.publish().map_err(|e| ExportError::Io { path: path.to_path_buf(), source: e.source })
 }
 
 /// A checked motion with its body poses solved.
@@ -94,24 +128,20 @@ pub fn y_up_rot(q: &UnitQuaternion<f32>) -> [f32; 4] {
     [q.w, -q.i, q.k, q.j]
 }
 
-/// Write a file atomically: a temporary sibling, flushed and synced, renamed into place.
-/// `fill` writes the content; on any error the temporary file is removed.
-pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<(), ExportError> {
-    let io = |source| ExportError::Io { path: path.to_path_buf(), source };
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+/// Create `path`, fill it with `fill`, flush and sync it; on any error the file is removed.
+/// `path` is a partial name of an output set.
+pub fn write_file(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<(), ExportError> {
     let result = (|| {
-        let file = std::fs::File::create(&tmp)?;
+        let file = std::fs::File::create(path)?;
         let mut w = std::io::BufWriter::new(file);
         fill(&mut w)?;
         let file = w.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
-        std::fs::rename(&tmp, path)
+        file.sync_all()
     })();
     if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+        let _ = std::fs::remove_file(path);
     }
-    result.map_err(io)
+    result.map_err(|source| ExportError::Io { path: path.to_path_buf(), source })
 }
 
 #[cfg(test)]
@@ -134,14 +164,17 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("drumsim-atomic-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("x.json");
-        let err = write_atomic(&path, |w: &mut dyn Write| {
-            w.write_all(b"{\"half\":")?;
-            Err(std::io::Error::other("disk full"))
+        let err = write_one(&path, |partial| {
+            write_file(partial, |w: &mut dyn Write| {
+                w.write_all(b"{\"half\":")?;
+                Err(std::io::Error::other("disk full"))
+            })
         });
+        assert!(err.as_ref().unwrap_err().to_string().starts_with(&path.display().to_string()), "{err:?}");
         assert!(matches!(err, Err(ExportError::Io { .. })));
         assert!(!path.exists());
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "temporary file left behind");
-        write_atomic(&path, |w: &mut dyn Write| w.write_all(b"{}")).unwrap();
+        write_one(&path, |partial| write_file(partial, |w: &mut dyn Write| w.write_all(b"{}"))).unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "{}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
