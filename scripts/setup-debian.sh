@@ -7,6 +7,8 @@ packages=(pkg-config libasound2-dev libjack-jackd2-dev jackd2 gcc libc6-dev)
 # The export tests read the BVH back with assimp and validate the glTF with the Khronos
 # glTF-Validator, which runs on Node.js (installed below into /opt/gltf-validator).
 packages+=(assimp-utils)
+# The General MIDI tests render songs from the wild: OpenTTD's and Planet Blupi's music.
+packages+=(openttd-openmsx planetblupi-music-midi)
 command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"

@@ -121,7 +121,12 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
         .with_stats(audio.stats.clone());
     let feeder = thread::Builder::new().name("drumsim-feed".into()).spawn(move || feed.run(&mut packet_rx))?;
 
-    let sink = EventSink { parser: MessageParser::new(channel), epoch, tx: event_tx, stats: counters.input.clone() };
+    let sink = EventSink {
+        parser: MessageParser { cc4_closed: map.cc4_closed, ..MessageParser::new(channel) },
+        epoch,
+        tx: event_tx,
+        stats: counters.input.clone(),
+    };
     input.connect(&port, sink)?;
     wait_for_first_callback(&audio.stats);
     eprintln!("{}", status(&port, channel, &opts.map, &audio, opts.lookahead_ms));

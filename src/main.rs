@@ -41,8 +41,9 @@ enum Command {
         /// Kit: a built-in kit (default, rearranged) or a kit file (default: default).
         #[arg(long)]
         kit: Option<PathBuf>,
-        /// Note map: gm, roland-td, yamaha-dtx, or a file.
-        #[arg(long, default_value = "gm")]
+        /// Note map: auto (the built-in map that knows the most of the song's notes), gm, gs,
+        /// xg, roland-td, alesis, yamaha-dtx, or a file.
+        #[arg(long, default_value = "auto")]
         map: String,
         /// Drum channel 1..=16 (default: the map's, 10 for General MIDI).
         #[arg(long)]

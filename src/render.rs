@@ -53,7 +53,7 @@ impl Default for RenderOptions {
         RenderOptions {
             out_dir: PathBuf::from("out"),
             kit: None,
-            map: "gm".into(),
+            map: crate::midi::map::AUTO_MAP.into(),
             channel: None,
             skip_unknown: false,
             progress: false,
@@ -81,6 +81,12 @@ pub enum RenderInputError {
         hms(MAX_SONG_S)
     )]
     TooLong { path: PathBuf, last_note_s: f64 },
+    #[error(
+        "{}: no note on channel {channel} is one the kit plays{}; nothing to render (a map for the file's kit, --map NAME|FILE, or --channel N for another drum channel)",
+        .path.display(),
+        if skipped.is_empty() { String::new() } else { format!(" (left out: {})", skipped_list(skipped)) }
+    )]
+    NothingToPlay { path: PathBuf, channel: u8, skipped: Vec<SkippedNote> },
     #[error(transparent)]
     Direct(#[from] DirectError),
 }
@@ -136,6 +142,42 @@ pub struct ContactsFile {
     pub contacts: Vec<ContactRecord>,
     pub hihat: Vec<HiHatRecord>,
     pub chokes: Vec<ChokeRecord>,
+    /// Notes left out: those the map skips (percussion no kit piece plays) and, with
+    /// `--skip-unknown`, those it does not know.
+    pub skipped_notes: Vec<SkippedNote>,
+}
+
+/// A note number a render left out, how often and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SkippedNote {
+    pub note: u8,
+    pub count: usize,
+    pub first_time_s: f64,
+    /// What the map calls it ("hand clap"), or "not in the map".
+    pub what: String,
+}
+
+/// The notes of `perf` that `map` skips or does not know, ascending by note.
+pub fn skipped_notes(perf: &Performance, map: &NoteMap) -> Vec<SkippedNote> {
+    let mut all: Vec<SkippedNote> = map
+        .skipped_notes(perf)
+        .into_iter()
+        .chain(map.unknown_notes(perf))
+        .map(|u| SkippedNote {
+            note: u.note,
+            count: u.count,
+            first_time_s: u.first_time_s,
+            what: map.skip_reason(u.note).unwrap_or("not in the map").to_string(),
+        })
+        .collect();
+    all.sort_by_key(|s| s.note);
+    all
+}
+
+/// "12 x note 39 (hand clap), 2 x note 99 (not in the map)".
+fn skipped_list(skipped: &[SkippedNote]) -> String {
+    let list: Vec<String> = skipped.iter().map(|s| format!("{} x note {} ({})", s.count, s.note, s.what)).collect();
+    list.join(", ")
 }
 
 /// What a render did.
@@ -147,6 +189,10 @@ pub struct RenderReport {
     pub wall_s: f64,
     pub contacts: usize,
     pub non_finite_samples: u64,
+    /// Notes left out (see [`ContactsFile::skipped_notes`]).
+    pub skipped: Vec<SkippedNote>,
+    /// The note map's name and source ("Roland TD (auto: built-in roland-td)").
+    pub map: String,
     /// The motion files, when written, and what the motion stage did.
     pub motion: Option<MotionOutput>,
     /// What the body did, in physical mode.
@@ -210,7 +256,12 @@ pub fn stage_motion(perf: &Performance, kit: &Kit, map: &NoteMap, hands: &Hands)
 
 /// Write a staged motion's exports (SONG.motion.json, .bvh, .glb) under partial names of
 /// `set`, to be published with the rest of the render.
-pub fn stage_motion_files(staged: &Staged, out_dir: &Path, stem: &str, set: &mut OutputSet) -> anyhow::Result<MotionOutput> {
+pub fn stage_motion_files(
+    staged: &Staged,
+    out_dir: &Path,
+    stem: &str,
+    set: &mut OutputSet,
+) -> anyhow::Result<MotionOutput> {
     use crate::motion::{export, rig::Rig};
     let started = Instant::now();
     let paths = export::stage_all(&staged.planned.motion, &Rig::default(), out_dir, stem, set)?;
@@ -262,6 +313,11 @@ impl std::fmt::Display for RenderReport {
             self.wav.display(),
             self.contacts_json.display()
         )?;
+        write!(f, "; note map {}", self.map)?;
+        if !self.skipped.is_empty() {
+            let n: usize = self.skipped.iter().map(|s| s.count).sum();
+            write!(f, "; {n} notes left out: {}", skipped_list(&self.skipped))?;
+        }
         if self.non_finite_samples > 0 {
             write!(f, "; {} non-finite samples were silenced", self.non_finite_samples)?;
         }
@@ -278,15 +334,37 @@ pub struct Score {
     pub duration_s: f64,
 }
 
+/// The note map a render uses and its song read with it: `opts.map` names a built-in map or
+/// a file, or is `auto` ([`NoteMap::auto_for`] on the song read on its drum channel).
+pub fn load_song(song: &Path, opts: &RenderOptions) -> anyhow::Result<(Performance, NoteMap)> {
+    let map = if opts.map == crate::midi::map::AUTO_MAP {
+        let channel = opts.channel.unwrap_or(10);
+        if !(1..=16).contains(&channel) {
+            return Err(RenderInputError::Channel(channel).into());
+        }
+        NoteMap::auto_for(&read_file(song, &ReadOptions { channel })?)
+    } else {
+        NoteMap::load(&opts.map)?
+    };
+    Ok((read_song(song, &map, opts)?, map))
+}
+
 /// Read a song for a render: the drum channel checked, unknown notes refused unless skipped.
 pub fn read_song(song: &Path, map: &NoteMap, opts: &RenderOptions) -> anyhow::Result<Performance> {
     let channel = opts.channel.unwrap_or(map.channel);
     if !(1..=16).contains(&channel) {
         return Err(RenderInputError::Channel(channel).into());
     }
-    let perf = read_file(song, &ReadOptions { channel })?;
+    let mut perf = read_file(song, &ReadOptions { channel })?;
+    map.normalize_pedal(&mut perf);
     if !opts.skip_unknown {
         map.check_known(&perf)?;
+    }
+    let played =
+        perf.events.iter().any(|e| matches!(e.kind, DrumEventKind::NoteOn { note, .. } if map.entry(note).is_some()));
+    if !played {
+        let skipped = skipped_notes(&perf, map);
+        return Err(RenderInputError::NothingToPlay { path: song.to_path_buf(), channel, skipped }.into());
     }
     if perf.notes_end_s > MAX_SONG_S {
         return Err(RenderInputError::TooLong { path: song.to_path_buf(), last_note_s: perf.notes_end_s }.into());
@@ -332,6 +410,7 @@ impl<'a> Carrier<'a> {
             contacts: Vec::new(),
             hihat: Vec::new(),
             chokes: Vec::new(),
+            skipped_notes: skipped_notes(perf, map),
         };
         Carrier { kit, tx, rx, buf: Vec::with_capacity(128), events: Vec::new(), contacts }
     }
@@ -526,7 +605,7 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
         Some(path) => Kit::load(path)?,
         None => Kit::builtin_default(),
     };
-    let map = NoteMap::load(&opts.map)?;
+    let (perf, map) = load_song(song, opts)?;
     let stem = song
         .file_stem()
         .ok_or_else(|| RenderInputError::NoStem { path: song.to_path_buf() })?
@@ -535,12 +614,10 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
     // The hand model is read before anything is written: bad weights stop the render early.
     let (score, hands, staged, physical) = match opts.sound {
         SoundMode::Direct => {
-            let perf = read_song(song, &map, opts)?;
             let score = score_performance(&perf, &kit, &map)?;
             (score, if opts.motion { Some((load_hands(opts)?, perf)) } else { None }, None, None)
         }
         SoundMode::Physical => {
-            let perf = read_song(song, &map, opts)?;
             let hands = load_hands(opts)?;
             let mut staged = stage_motion(&perf, &kit, &map, &hands)?;
             let (score, summary) = score_physical(&perf, &kit, &map, &mut staged)?;
@@ -594,6 +671,8 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
         wall_s: started.elapsed().as_secs_f64(),
         contacts: score.contacts.contacts.len(),
         non_finite_samples: non_finite,
+        skipped: score.contacts.skipped_notes.clone(),
+        map: format!("{} ({})", map.name, map.source),
     })
 }
 
@@ -610,6 +689,8 @@ mod tests {
             wall_s: 0.1,
             contacts: 2,
             non_finite_samples: n,
+            skipped: Vec::new(),
+            map: "General MIDI (built-in gm)".into(),
             motion: None,
             physical: None,
         };

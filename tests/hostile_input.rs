@@ -333,3 +333,168 @@ fn ctrl_c_during_a_render_removes_its_partial_files_and_publishes_nothing() {
     assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
     assert_eq!(listing(&out), before, "no partial left, the older set untouched");
 }
+
+/// A song of the given note-ons on channel 10, a quarter note apart.
+fn song_of(notes: &[u8]) -> Vec<u8> {
+    let mut track = Vec::new();
+    for &n in notes {
+        track.extend_from_slice(&[0x00, 0x99, n, 0x60, 0x83, 0x60, 0x89, n, 0x00]);
+    }
+    track.extend_from_slice(&[0x00, 0xFF, 0x2F, 0x00]);
+    smf(&track)
+}
+
+#[test]
+fn general_midi_percussion_renders_by_default_and_what_is_left_out_is_counted() {
+    let dir = fresh_dir("gm-percussion");
+    // Snare, kick, two claps, a cowbell (played on the ride bell), a triangle, a low conga.
+    let song = dir.join("latin.mid");
+    std::fs::write(&song, song_of(&[38, 36, 39, 39, 56, 81, 64])).unwrap();
+    let out = dir.join("out");
+    let o = drumsim(&["render", song.to_str().unwrap(), "--no-motion", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("3 notes left out: 2 x note 39 (hand clap), 1 x note 81 (open triangle)"),
+        "{}",
+        stderr(&o)
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("latin.contacts.json")).unwrap()).unwrap();
+    let skipped: Vec<(u64, u64)> = json["skipped_notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| (s["note"].as_u64().unwrap(), s["count"].as_u64().unwrap()))
+        .collect();
+    assert_eq!(skipped, [(39, 2), (81, 1)]);
+    let pieces: Vec<&str> = json["contacts"].as_array().unwrap().iter().map(|c| c["piece"].as_str().unwrap()).collect();
+    assert!(pieces.contains(&"ride") && pieces.contains(&"floor_tom"), "{pieces:?}");
+}
+
+#[test]
+fn a_song_whose_notes_are_all_unknown_or_skipped_is_an_error_not_a_silent_wav() {
+    let dir = fresh_dir("all-unknown");
+    let out = dir.join("out");
+    let song = dir.join("whistles.mid");
+    std::fs::write(&song, song_of(&[71, 72, 71])).unwrap();
+    let o = drumsim(&["render", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("whistles.mid") && stderr(&o).contains("short whistle"), "{}", stderr(&o));
+    let song = dir.join("high.mid");
+    std::fs::write(&song, song_of(&[100, 101])).unwrap();
+    let o = drumsim(&["render", song.to_str().unwrap(), "--skip-unknown", "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("high.mid") && stderr(&o).contains("2 x note") || stderr(&o).contains("1 x note 100"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists() || listing(&out).is_empty(), "{:?}", listing(&out));
+}
+
+#[test]
+fn a_kit_that_sends_cc4_0_for_closed_is_read_the_right_way_round() {
+    let dir = fresh_dir("cc4-closed-0");
+    // A closed hi-hat note under a pedal held at CC4 = 0, which this kit sends for closed.
+    let track = [0x00, 0xB9, 0x04, 0x00, 0x00, 0x99, 42, 0x60, 0x83, 0x60, 0x89, 42, 0x00, 0x00, 0xFF, 0x2F, 0x00];
+    let song = dir.join("hats.mid");
+    std::fs::write(&song, smf(&track)).unwrap();
+    let map = dir.join("closed-at-0.toml");
+    std::fs::write(&map, "name = \"closed at 0\"\nextends = \"gm\"\ncc4_closed = 0\n").unwrap();
+    let openness = |map: &str, tag: &str| {
+        let out = dir.join(tag);
+        let o =
+            drumsim(&["render", song.to_str().unwrap(), "--map", map, "--no-motion", "--out", out.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("hats.contacts.json")).unwrap()).unwrap();
+        json["hihat"][0]["openness"].as_f64().unwrap()
+    };
+    assert_eq!(openness("gm", "gm"), 1.0, "CC4 0 is open to General MIDI and Roland");
+    assert_eq!(openness(map.to_str().unwrap(), "mine"), 0.0);
+}
+
+/// Songs from Debian's game music packages (installed by scripts/setup-debian.sh): GM files
+/// from the wild, with claps, shakers, triangles and GS extras.
+const DEBIAN_SONGS: [&str; 20] = [
+    "/usr/share/planetblupi/music/music000.mid",
+    "/usr/share/planetblupi/music/music001.mid",
+    "/usr/share/planetblupi/music/music002.mid",
+    "/usr/share/planetblupi/music/music003.mid",
+    "/usr/share/planetblupi/music/music004.mid",
+    "/usr/share/planetblupi/music/music005.mid",
+    "/usr/share/planetblupi/music/music006.mid",
+    "/usr/share/planetblupi/music/music007.mid",
+    "/usr/share/planetblupi/music/music008.mid",
+    "/usr/share/planetblupi/music/music009.mid",
+    "/usr/share/games/openttd/baseset/openmsx/be_sharp_bw_redfarn.mid",
+    "/usr/share/games/openttd/baseset/openmsx/busy_schedule.mid",
+    "/usr/share/games/openttd/baseset/openmsx/chuggachugga.mid",
+    "/usr/share/games/openttd/baseset/openmsx/linns_basket.mid",
+    "/usr/share/games/openttd/baseset/openmsx/mighty_giant_run.mid",
+    "/usr/share/games/openttd/baseset/openmsx/modern_motion.mid",
+    "/usr/share/games/openttd/baseset/openmsx/mosey_along_redfarn.mid",
+    "/usr/share/games/openttd/baseset/openmsx/run_for_your_life.mid",
+    "/usr/share/games/openttd/baseset/openmsx/the_hobo_redfarn.mid",
+    "/usr/share/games/openttd/baseset/openmsx/ttsong_iii_imuh3.mid",
+];
+
+#[test]
+fn twenty_general_midi_songs_from_debian_render_by_default_and_count_every_note() {
+    use drumsim::midi::{read_file, DrumEventKind, ReadOptions};
+    let missing: Vec<&str> = DEBIAN_SONGS.iter().copied().filter(|p| !Path::new(p).exists()).collect();
+    assert!(
+        missing.is_empty(),
+        "install openttd-openmsx and planetblupi-music-midi (scripts/setup-debian.sh): {missing:?}"
+    );
+    let dir = fresh_dir("debian-gm");
+    let out = dir.join("out");
+    let mut left_out = 0u64;
+    for chunk in DEBIAN_SONGS.chunks(10) {
+        let runs: Vec<_> = chunk
+            .iter()
+            .map(|song| {
+                let out = out.clone();
+                std::thread::spawn(move || drumsim(&["render", song, "--out", out.to_str().unwrap()]))
+            })
+            .collect();
+        for (song, run) in chunk.iter().zip(runs) {
+            let o = run.join().unwrap();
+            assert!(o.status.success(), "{song}: {}", stderr(&o));
+            assert!(stderr(&o).contains("note map General MIDI (auto: built-in gm)"), "{song}: {}", stderr(&o));
+            // Every note-on is played (it has contacts) or counted as left out; a note struck
+            // twice at one instant (these songs have a few) is one stroke.
+            let perf = read_file(Path::new(song), &ReadOptions { channel: 10 }).unwrap();
+            let mut notes: Vec<(u64, u8)> = perf
+                .events
+                .iter()
+                .filter_map(|e| match e.kind {
+                    DrumEventKind::NoteOn { note, .. } => Some(((e.time_s * 1e6).round() as u64, note)),
+                    _ => None,
+                })
+                .collect();
+            let all_notes = notes.len() as u64;
+            notes.sort();
+            notes.dedup();
+            let stem = Path::new(song).file_stem().unwrap().to_str().unwrap();
+            let json: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(out.join(format!("{stem}.contacts.json"))).unwrap()).unwrap();
+            let mut played: Vec<(String, u64)> = json["contacts"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .filter(|c| !c["note"].is_null())
+                .map(|c| (c["note"]["time_s"].to_string(), c["note"]["note"].as_u64().unwrap()))
+                .collect();
+            played.sort();
+            played.dedup();
+            let skipped: u64 =
+                json["skipped_notes"].as_array().unwrap().iter().map(|s| s["count"].as_u64().unwrap()).sum();
+            left_out += skipped;
+            let counted = played.len() as u64 + skipped;
+            assert!(counted >= notes.len() as u64 && counted <= all_notes, "{song}: {counted} of {all_notes} notes");
+            assert!(out.join(format!("{stem}.glb")).exists(), "{song}");
+        }
+    }
+    assert!(left_out > 0, "these songs have claps, shakers and triangles");
+}

@@ -30,11 +30,14 @@ pub struct LiveEvent {
 pub struct MessageParser {
     /// 1..=16.
     pub channel: u8,
+    /// The CC4 value of a closed hi-hat on the player's kit (127 or 0; see
+    /// [`crate::midi::NoteMap::cc4_closed`]): pedal values are turned to 127 closed.
+    pub cc4_closed: u8,
 }
 
 impl MessageParser {
     pub fn new(channel: u8) -> MessageParser {
-        MessageParser { channel }
+        MessageParser { channel, cc4_closed: 127 }
     }
 
     /// The drum event in `bytes`, or None for other channels, other messages and malformed data.
@@ -51,7 +54,10 @@ impl MessageParser {
                 (note, velocity) => Some(DrumEventKind::NoteOn { note, velocity }),
             },
             0xA0 => Some(DrumEventKind::Aftertouch { note: byte(0)?, pressure: byte(1)? }),
-            0xB0 if byte(0)? == 4 => Some(DrumEventKind::HiHatPedal { value: byte(1)? }),
+            0xB0 if byte(0)? == 4 => {
+                let value = byte(1)?;
+                Some(DrumEventKind::HiHatPedal { value: if self.cc4_closed == 0 { 127 - value } else { value } })
+            }
             _ => None,
         }
     }
@@ -252,7 +258,7 @@ impl LiveInput {
 mod tests {
     use super::*;
 
-    const DRUMS: MessageParser = MessageParser { channel: 10 };
+    const DRUMS: MessageParser = MessageParser { channel: 10, cc4_closed: 127 };
 
     #[test]
     fn note_on_with_velocity_zero_is_a_note_off() {
@@ -265,6 +271,8 @@ mod tests {
     fn hihat_pedal_and_aftertouch() {
         assert_eq!(DRUMS.parse(&[0xB9, 4, 90]), Some(DrumEventKind::HiHatPedal { value: 90 }));
         assert_eq!(DRUMS.parse(&[0xB9, 7, 90]), None, "only CC4 matters");
+        let closed_at_0 = MessageParser { channel: 10, cc4_closed: 0 };
+        assert_eq!(closed_at_0.parse(&[0xB9, 4, 0]), Some(DrumEventKind::HiHatPedal { value: 127 }));
         assert_eq!(DRUMS.parse(&[0xA9, 49, 127]), Some(DrumEventKind::Aftertouch { note: 49, pressure: 127 }));
     }
 

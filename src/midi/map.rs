@@ -9,12 +9,24 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// The built-in maps: (name for `--map`, TOML text).
-pub const BUILTIN_MAPS: [(&str, &str); 3] = [
+/// The built-in maps: (name for `--map`, TOML text). A map may extend one listed before it.
+pub const BUILTIN_MAPS: [(&str, &str); 6] = [
     ("gm", include_str!("../../config/maps/gm.toml")),
+    ("gs", include_str!("../../config/maps/gs.toml")),
+    ("xg", include_str!("../../config/maps/xg.toml")),
     ("roland-td", include_str!("../../config/maps/roland-td.toml")),
+    ("alesis", include_str!("../../config/maps/alesis.toml")),
     ("yamaha-dtx", include_str!("../../config/maps/yamaha-dtx.toml")),
 ];
+
+/// `--map auto`, the render's default: the built-in map that knows the most of the file's
+/// notes ([`NoteMap::auto_for`]).
+pub const AUTO_MAP: &str = "auto";
+
+/// The maps `--map auto` chooses among, in the order it prefers on a tie: General MIDI first,
+/// except for a file with hi-hat pedal data (CC4), which an e-kit recorded.
+const AUTO_PLAIN: [&str; 4] = ["gm", "roland-td", "alesis", "yamaha-dtx"];
+const AUTO_EKIT: [&str; 4] = ["roland-td", "alesis", "yamaha-dtx", "gm"];
 
 /// Where on a piece a note strikes. The kit config gives each zone its radius.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Deserialize)]
@@ -81,12 +93,18 @@ pub struct NoteMap {
     pub channel: u8,
     /// Indexed by MIDI note number (128 entries).
     pub notes: Vec<Option<MapEntry>>,
+    /// Notes the map knows but leaves out (percussion the kit has no piece for), with the
+    /// reason shown in the render's count of them; indexed by note number (128 entries).
+    pub skips: Vec<Option<String>>,
+    /// The CC4 (hi-hat pedal) value of a closed hi-hat: 127 (Roland, Alesis, Yamaha) or 0.
+    /// Pedal values are turned to drumsim's convention (127 closed) as they are read.
+    pub cc4_closed: u8,
     /// Where it came from, for messages: "built-in gm" or the file's path.
     pub source: String,
 }
 
-/// A note of a performance that the map does not know.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A note of a performance that the map does not know (or knows and skips).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct UnknownNote {
     pub note: u8,
     /// How many note-ons it has.
@@ -160,16 +178,20 @@ fn unknown_message(midi: &Path, map: &str, notes: &[UnknownNote], suggest: &[&st
 struct RawMap {
     name: String,
     channel: Option<i64>,
+    extends: Option<String>,
+    cc4_closed: Option<i64>,
+    #[serde(default)]
     notes: BTreeMap<String, RawEntry>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawEntry {
-    piece: String,
-    zone: String,
-    roll: i64,
+    piece: Option<String>,
+    zone: Option<String>,
+    roll: Option<i64>,
     hihat_openness: Option<f64>,
+    skip: Option<String>,
 }
 
 impl NoteMap {
@@ -180,6 +202,30 @@ impl NoteMap {
         let mut map = NoteMap::from_toml_str(text, Path::new(&path)).expect("built-in maps are valid (tested)");
         map.source = format!("built-in {name}");
         Some(map)
+    }
+
+    /// The built-in map for `perf` when the user named none: General MIDI, Roland TD, Alesis
+    /// or Yamaha DTX, whichever knows the most of its note-ons (played or skipped), and plays
+    /// some. A tie goes
+    /// to General MIDI, or to the e-kit maps when the file has hi-hat pedal data (CC4), which
+    /// e-kits send. Its source says it was chosen ("auto: built-in roland-td").
+    pub fn auto_for(perf: &Performance) -> NoteMap {
+        let has_cc4 = perf.events.iter().any(|e| matches!(e.kind, DrumEventKind::HiHatPedal { .. }));
+        let order = if has_cc4 { AUTO_EKIT } else { AUTO_PLAIN };
+        let mut map = order
+            .iter()
+            .map(|name| NoteMap::builtin(name).expect("built-in map"))
+            .min_by_key(|m| {
+                let unknown: usize = m.unknown_notes(perf).iter().map(|u| u.count).sum();
+                let plays_none = !perf
+                    .events
+                    .iter()
+                    .any(|e| matches!(e.kind, DrumEventKind::NoteOn { note, .. } if m.entry(note).is_some()));
+                (unknown, plays_none)
+            })
+            .expect("four candidates");
+        map.source = format!("auto: {}", map.source);
+        map
     }
 
     /// A built-in map's name, else a map file's path (a built-in name wins: write `./gm` for a
@@ -204,14 +250,39 @@ impl NoteMap {
         let raw: RawMap =
             toml::from_str(text).map_err(|e| MapError::Invalid { path: path.to_path_buf(), message: e.to_string() })?;
         let fail = |key: &str, message: String| MapError::Value { path: path.to_path_buf(), key: key.into(), message };
-        let channel = match raw.channel.unwrap_or(10) {
-            c @ 1..=16 => c as u8,
-            c => return Err(fail("channel", format!("{c} is not a MIDI channel; allowed: 1 ..= 16"))),
+        // A built-in map extends only one listed before it, so loading ends.
+        let me = BUILTIN_MAPS.iter().position(|(n, _)| Path::new(&format!("config/maps/{n}.toml")) == path);
+        let base = match &raw.extends {
+            None => None,
+            Some(name) => match BUILTIN_MAPS.iter().position(|(n, _)| n == name) {
+                Some(at) if me.is_none_or(|me| at < me) => NoteMap::builtin(name),
+                _ => {
+                    let names: Vec<&str> = BUILTIN_MAPS.iter().map(|(n, _)| *n).collect();
+                    return Err(fail(
+                        "extends",
+                        format!("{name:?} is not a built-in map; allowed: {}", names.join(", ")),
+                    ));
+                }
+            },
         };
-        if raw.notes.is_empty() {
+        let channel = match raw.channel {
+            None => base.as_ref().map_or(10, |b| b.channel),
+            Some(c @ 1..=16) => c as u8,
+            Some(c) => return Err(fail("channel", format!("{c} is not a MIDI channel; allowed: 1 ..= 16"))),
+        };
+        let cc4_closed = match raw.cc4_closed {
+            None => base.as_ref().map_or(127, |b| b.cc4_closed),
+            Some(v @ (0 | 127)) => v as u8,
+            Some(v) => return Err(fail("cc4_closed", format!("{v} is neither 127 nor 0"))),
+        };
+        if raw.notes.is_empty() && base.is_none() {
             return Err(fail("notes", "the map has no notes".into()));
         }
-        let mut notes: Vec<Option<MapEntry>> = vec![None; 128];
+        let (mut notes, mut skips) = match base {
+            Some(b) => (b.notes, b.skips),
+            None => (vec![None; 128], vec![None; 128]),
+        };
+        let mut seen = [false; 128];
         for (key, e) in raw.notes {
             let k = |field: &str| format!("notes.{key}.{field}");
             let note = match key.parse::<u8>() {
@@ -221,27 +292,40 @@ impl NoteMap {
                     return Err(fail(&format!("notes.{key}"), message));
                 }
             };
-            if notes[usize::from(note)].is_some() {
+            let n = usize::from(note);
+            if std::mem::replace(&mut seen[n], true) {
                 return Err(fail(&format!("notes.{key}"), format!("note {note} appears twice")));
             }
-            if e.piece.is_empty() || !e.piece.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '_' || ch == '-') {
+            if let Some(reason) = e.skip {
+                if e.piece.is_some() || e.zone.is_some() || e.roll.is_some() || e.hihat_openness.is_some() {
+                    let message = "a skipped note has only `skip = \"why\"`, no piece, zone, roll or openness";
+                    return Err(fail(&format!("notes.{key}"), message.into()));
+                }
+                if reason.trim().is_empty() {
+                    return Err(fail(&k("skip"), "say what the note is, e.g. skip = \"hand clap\"".into()));
+                }
+                (notes[n], skips[n]) = (None, Some(reason));
+                continue;
+            }
+            let (Some(piece), Some(zone), Some(roll)) = (e.piece, e.zone, e.roll) else {
+                let message = "a note needs piece, zone and roll (or skip = \"why\" to leave it out)";
+                return Err(fail(&format!("notes.{key}"), message.into()));
+            };
+            if piece.is_empty() || !piece.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '_' || ch == '-') {
                 return Err(fail(
                     &k("piece"),
-                    format!(
-                        "{:?} must be a kit piece id (a word of letters, digits, _ or -), such as \"snare\"",
-                        e.piece
-                    ),
+                    format!("{piece:?} must be a kit piece id (a word of letters, digits, _ or -), such as \"snare\""),
                 ));
             }
-            let Some(zone) = Zone::from_name(&e.zone) else {
+            let Some(zone) = Zone::from_name(&zone) else {
                 let allowed: Vec<&str> = Zone::ALL.iter().map(|z| z.name()).collect();
-                return Err(fail(&k("zone"), format!("{:?} is not a zone; allowed: {}", e.zone, allowed.join(", "))));
+                return Err(fail(&k("zone"), format!("{zone:?} is not a zone; allowed: {}", allowed.join(", "))));
             };
-            let roll = match u8::try_from(e.roll) {
+            let roll = match u8::try_from(roll) {
                 Ok(r) if NOTE_NUMS.contains(&r) => r,
                 _ => {
                     let allowed: Vec<String> = NOTE_NUMS.iter().map(u8::to_string).collect();
-                    let message = format!("{} is not a DRUMS roll note; allowed: {}", e.roll, allowed.join(", "));
+                    let message = format!("{roll} is not a DRUMS roll note; allowed: {}", allowed.join(", "));
                     return Err(fail(&k("roll"), message));
                 }
             };
@@ -250,9 +334,37 @@ impl NoteMap {
                 Some(x) if x.is_finite() && (0.0..=1.0).contains(&x) => Some(x as f32),
                 Some(x) => return Err(fail(&k("hihat_openness"), format!("{x} is outside the allowed range 0 ..= 1"))),
             };
-            notes[usize::from(note)] = Some(MapEntry { piece: e.piece, zone, roll, hihat_openness });
+            (notes[n], skips[n]) = (Some(MapEntry { piece, zone, roll, hihat_openness }), None);
         }
-        Ok(NoteMap { name: raw.name, channel, notes, source: path.display().to_string() })
+        Ok(NoteMap { name: raw.name, channel, notes, skips, cc4_closed, source: path.display().to_string() })
+    }
+
+    /// A CC4 value as drumsim reads it (0 open .. 127 closed), whichever way the kit sends it.
+    pub fn hihat_pedal_value(&self, raw: u8) -> u8 {
+        if self.cc4_closed == 0 {
+            127 - raw.min(127)
+        } else {
+            raw
+        }
+    }
+
+    /// Turn the hi-hat pedal values of `perf` to drumsim's convention ([`Self::hihat_pedal_value`]).
+    pub fn normalize_pedal(&self, perf: &mut Performance) {
+        for e in &mut perf.events {
+            if let DrumEventKind::HiHatPedal { value } = &mut e.kind {
+                *value = self.hihat_pedal_value(*value);
+            }
+        }
+    }
+
+    /// Why the map leaves `note` out, if it does.
+    pub fn skip_reason(&self, note: u8) -> Option<&str> {
+        self.skips.get(usize::from(note))?.as_deref()
+    }
+
+    /// The note-ons of `perf` that this map knows and leaves out, ascending by note.
+    pub fn skipped_notes(&self, perf: &Performance) -> Vec<UnknownNote> {
+        self.count_notes(perf, |note| self.skip_reason(note).is_some())
     }
 
     /// What `note` means, if the map knows it.
@@ -262,10 +374,14 @@ impl NoteMap {
 
     /// The notes of `perf`'s note-ons that this map does not know, ascending.
     pub fn unknown_notes(&self, perf: &Performance) -> Vec<UnknownNote> {
+        self.count_notes(perf, |note| self.entry(note).is_none() && self.skip_reason(note).is_none())
+    }
+
+    fn count_notes(&self, perf: &Performance, wanted: impl Fn(u8) -> bool) -> Vec<UnknownNote> {
         let mut found: BTreeMap<u8, UnknownNote> = BTreeMap::new();
         for e in &perf.events {
             if let DrumEventKind::NoteOn { note, .. } = e.kind {
-                if self.entry(note).is_none() {
+                if wanted(note) {
                     let u = found.entry(note).or_insert(UnknownNote {
                         note,
                         count: 0,
@@ -354,11 +470,93 @@ mod tests {
         assert_eq!(e(&gm, 52).0, "china");
         assert_eq!(e(&gm, 55).0, "splash");
         assert!(gm.entry(22).is_none() && gm.entry(39).is_none());
+        assert_eq!(gm.skip_reason(39), Some("hand clap"));
+        assert_eq!(e(&gm, 56), ("ride", Zone::Bell, 51));
+        assert_eq!(e(&gm, 64), ("floor_tom", Zone::Head, 43));
+        assert_eq!(e(&gm, 75), ("snare", Zone::CrossStick, 37));
+        let xg = NoteMap::builtin("xg").unwrap();
+        assert_eq!(e(&xg, 31), ("snare", Zone::Head, 38));
+        assert_eq!(e(&xg, 33), ("kick", Zone::Pedal, 36));
+        assert_eq!(e(&xg, 34), ("snare", Zone::Rim, 38));
+        assert_eq!(e(&xg, 56), ("ride", Zone::Bell, 51), "xg extends gm");
+        let alesis = NoteMap::builtin("alesis").unwrap();
+        assert_eq!(e(&alesis, 41), ("floor_tom", Zone::Head, 43));
+        assert_eq!(e(&alesis, 22), ("hihat", Zone::Edge, 42), "alesis extends roland-td");
         assert_eq!(e(&dtx, 31), ("snare", Zone::Head, 38));
         assert_eq!(e(&dtx, 37), ("snare", Zone::CrossStick, 37));
         assert_eq!(e(&dtx, 33), ("kick", Zone::Pedal, 36));
         assert_eq!(e(&dtx, 85), ("hihat", Zone::Pedal, 44));
         assert_eq!(dtx.entry(85).unwrap().hihat_openness, Some(0.6));
+    }
+
+    #[test]
+    fn every_general_midi_percussion_note_is_played_or_skipped_with_a_name() {
+        for name in ["gm", "gs", "xg"] {
+            let map = NoteMap::builtin(name).unwrap();
+            // GM Level 1's 47 notes; GM2 and GS add 27..34 and 82..87 (XG its own 13..34).
+            let notes = if name == "xg" { 13..=84 } else { 27..=87 };
+            for note in notes {
+                let played = map.entry(note).is_some();
+                let skipped = map.skip_reason(note).is_some_and(|r| !r.trim().is_empty());
+                assert!(played != skipped, "{name}: note {note}: played {played}, skipped {skipped}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_map_extends_a_built_in_one_and_may_replace_its_notes() {
+        let text = "name = \"mine\"\nextends = \"gm\"\ncc4_closed = 0\n[notes]\n39 = { piece = \"snare\", zone = \"rim\", roll = 38 }\n42 = { skip = \"not here\" }\n";
+        let map = NoteMap::from_toml_str(text, Path::new("m.toml")).unwrap();
+        assert_eq!(map.entry(39).unwrap().zone, Zone::Rim);
+        assert!(map.entry(42).is_none() && map.skip_reason(42) == Some("not here"));
+        assert_eq!(map.entry(38).unwrap().piece, "snare", "kept from gm");
+        assert_eq!((map.channel, map.cc4_closed), (10, 0));
+        assert_eq!((map.hihat_pedal_value(0), map.hihat_pedal_value(127), map.hihat_pedal_value(27)), (127, 0, 100));
+        assert_eq!(NoteMap::builtin("gm").unwrap().hihat_pedal_value(27), 27);
+    }
+
+    #[test]
+    fn auto_chooses_general_midi_unless_another_map_knows_more_notes() {
+        use crate::midi::{DrumEvent, Performance};
+        let perf = |notes: &[u8], cc4: bool| {
+            let mut events: Vec<DrumEvent> = notes
+                .iter()
+                .enumerate()
+                .map(|(i, &note)| DrumEvent {
+                    time_s: i as f64 * 0.25,
+                    tick: i as u64 * 120,
+                    kind: DrumEventKind::NoteOn { note, velocity: 90 },
+                })
+                .collect();
+            if cc4 {
+                events.push(DrumEvent { time_s: 0.0, tick: 0, kind: DrumEventKind::HiHatPedal { value: 100 } });
+            }
+            Performance { path: "x.mid".into(), events, duration_s: 1.0, notes_end_s: 1.0, channel: 10 }
+        };
+        let auto = |notes: &[u8], cc4| NoteMap::auto_for(&perf(notes, cc4)).source;
+        assert_eq!(auto(&[36, 38, 42, 39, 54], false), "auto: built-in gm", "claps and tambourine are GM");
+        assert_eq!(auto(&[36, 38, 42], true), "auto: built-in roland-td", "an e-kit sends CC4");
+        assert_eq!(auto(&[36, 38, 22, 26], false), "auto: built-in roland-td", "hi-hat edges are TD notes");
+        assert_eq!(auto(&[33, 31, 85], true), "auto: built-in yamaha-dtx");
+        assert_eq!(auto(&[33, 31, 85], false), "auto: built-in yamaha-dtx", "gm knows them but plays none");
+        assert_eq!(auto(&[36, 38, 39, 54], true), "auto: built-in gm", "roland-td does not know 39 and 54");
+    }
+
+    #[test]
+    fn skipped_notes_and_extends_are_checked() {
+        let cases = [
+            ("38 = { skip = \"x\", piece = \"snare\" }", "notes.38", "only `skip"),
+            ("38 = { skip = \" \" }", "notes.38.skip", "say what the note is"),
+            ("38 = { piece = \"snare\" }", "notes.38", "needs piece, zone and roll"),
+        ];
+        for (line, key, want) in cases {
+            let msg = err(&format!("name = \"m\"\n[notes]\n{line}\n"));
+            assert!(msg.contains(key) && msg.contains(want), "{line}: {msg}");
+        }
+        let msg = err("name = \"m\"\nextends = \"gm3\"\n");
+        assert!(msg.contains("extends") && msg.contains("gm, gs, xg, roland-td"), "{msg}");
+        let msg = err("name = \"m\"\nextends = \"gm\"\ncc4_closed = 64\n");
+        assert!(msg.contains("cc4_closed") && msg.contains("neither 127 nor 0"), "{msg}");
     }
 
     #[test]

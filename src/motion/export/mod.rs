@@ -17,8 +17,8 @@ pub mod json;
 use super::body_ik;
 use super::rig::{BodyPose, Rig};
 use super::track::Motion;
-use nalgebra::{UnitQuaternion, Vector3};
 use crate::outputs::OutputSet;
+use nalgebra::{UnitQuaternion, Vector3};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -51,7 +51,13 @@ pub fn write_all(motion: &Motion, rig: &Rig, dir: &Path, song: &str) -> Result<P
 
 /// Write the three files of [`write_all`] under partial names of `set`, for the caller to
 /// publish with the rest of its outputs.
-pub fn stage_all(motion: &Motion, rig: &Rig, dir: &Path, song: &str, set: &mut OutputSet) -> Result<Paths, ExportError> {
+pub fn stage_all(
+    motion: &Motion,
+    rig: &Rig,
+    dir: &Path,
+    song: &str,
+    set: &mut OutputSet,
+) -> Result<Paths, ExportError> {
     let baked = Baked::new(motion, rig)?;
     let paths = Paths {
         json: dir.join(format!("{song}.motion.json")),
