@@ -5,6 +5,7 @@
 //! [`interaction::message`]. See ARCHITECTURE.md for the map of the crate.
 
 pub mod body;
+pub mod check;
 pub mod eval;
 pub mod files;
 pub mod interaction;

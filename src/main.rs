@@ -132,6 +132,34 @@ enum Command {
         #[arg(long)]
         library: Option<PathBuf>,
     },
+    /// The stability suite on your kit, map and body settings: every stroke style at 40-300
+    /// bpm, the extremes of the allowed body sizes and gains, long continuous play, rolls,
+    /// flams, a fast groove, a fill and SONGS played physically, and the sound engine under
+    /// a barrage. A table (or --json) of every check's measures; exit 0 only if all hold.
+    Check {
+        /// Your songs, played physically too.
+        songs: Vec<PathBuf>,
+        #[arg(long)]
+        kit: Option<PathBuf>,
+        /// Note map of SONGS (as for render; default auto).
+        #[arg(long, default_value = "auto")]
+        map: String,
+        /// A body or controller setting, KEY=VALUE (repeat): mass_kg, height_m,
+        /// stick_length_m, natural_hz, damping_ratio, limit_hz, feedback, solver_iterations,
+        /// ik.damping_m, ik.posture_gain, ik.max_step_m.
+        #[arg(long = "body", value_name = "KEY=VALUE")]
+        body: Vec<String>,
+        /// Let gains and counts past their stable range through (--body), to see what the
+        /// checks find there. Body sizes are still checked.
+        #[arg(long)]
+        force: bool,
+        /// Simulated minutes of continuous play.
+        #[arg(long, default_value_t = 10.0)]
+        minutes: f64,
+        /// Print the report as one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
     /// Measure a render: hits and timing of its contacts against the MIDI, the DRUMS beat
     /// alignment of its hands, and (with --reference) L1, DTW and jerk against a reference
     /// motion. Prints one JSON object (DESIGN.md section 7).
@@ -236,6 +264,8 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.downcast_ref::<drumsim::motion::export::ExportError>().is_some_and(|e| !e.is_io())
             || e.is::<drumsim::eval::report::EvalError>()
             || e.is::<drumsim::eval::motion::MotionMetricError>()
+            || e.is::<drumsim::check::BodyKeyError>()
+            || e.is::<drumsim::body::anthropometry::BodyError>()
     });
     if bad_input {
         2
@@ -288,6 +318,43 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             drumsim::live::run(&opts)
         }
         Command::Devices => drumsim::live::list_devices(),
+        Command::Check { songs, kit, map, body, force, minutes, json } => {
+            use drumsim::check;
+            if !(minutes.is_finite() && (0.0..=600.0).contains(&minutes)) {
+                return Err(drumsim::render::RenderInputError::Unsupported(format!(
+                    "--minutes {minutes}: allowed 0 ..= 600"
+                ))
+                .into());
+            }
+            let kit = match &kit {
+                Some(path) => drumsim::kit::Kit::load(path)?,
+                None => drumsim::kit::Kit::builtin_default(),
+            };
+            let map = if map == drumsim::midi::map::AUTO_MAP {
+                drumsim::midi::NoteMap::builtin("gm").expect("built-in map")
+            } else {
+                drumsim::midi::NoteMap::load(&map)?
+            };
+            let mut drummer = drumsim::body::sim::DrummerSettings { unchecked_gains: force, ..Default::default() };
+            for b in &body {
+                check::set_body(&mut drummer, b)?;
+            }
+            drummer.validate()?;
+            drumsim::body::anthropometry::BodySettings::validate(drummer.body)?;
+            let opts = check::CheckOptions { kit, map, drummer, songs, minutes, progress: !json };
+            let report = check::run(&opts)?;
+            if json {
+                println!("{}", serde_json::to_string(&report)?);
+            } else {
+                print!("{}", report.table());
+            }
+            if report.ok {
+                Ok(())
+            } else {
+                let names: Vec<&str> = report.failures().map(|c| c.name.as_str()).collect();
+                Err(check::ChecksFailed { names: names.join(", "), failed: names.len(), total: report.checks.len() }.into())
+            }
+        }
         Command::Strokes { mode, trials, json, traces, threads, kit } => {
             use drumsim::body::sim::Mode;
             let modes = match mode {

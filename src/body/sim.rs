@@ -57,6 +57,9 @@ pub struct DrummerSettings {
     pub feedback: f32,
     /// One limit per joint; `None` for no limits.
     pub limits: Option<Vec<JointLimit>>,
+    /// Skip the stable-range check of the gains and counts (`drumsim check --force`: to see
+    /// what the stability checks find past that range). The body is still checked.
+    pub unchecked_gains: bool,
 }
 
 impl Default for DrummerSettings {
@@ -70,6 +73,7 @@ impl Default for DrummerSettings {
             ik: IkSettings::default(),
             feedback: 2.0,
             limits: Some(super::limits_data::shipped()),
+            unchecked_gains: false,
         }
     }
 }
@@ -90,7 +94,7 @@ impl DrummerSettings {
     /// Reject gains and counts that would make no sense (or blow the simulation up).
     pub fn validate(&self) -> Result<(), DrummerError> {
         let check = |key: &'static str, value: f32, min: f32, max: f32, range: &'static str| {
-            if (min..=max).contains(&value) {
+            if (min..=max).contains(&value) || (self.unchecked_gains && value.is_finite() && value >= 0.0) {
                 Ok(())
             } else {
                 Err(DrummerError::Setting { key, value, range })
@@ -99,7 +103,9 @@ impl DrummerSettings {
         check("natural_hz", self.natural_hz, 0.5, 60.0, "0.5..=60 Hz")?;
         check("damping_ratio", self.damping_ratio, 0.1, 5.0, "0.1..=5")?;
         check("limit_hz", self.limit_hz, 0.0, 30.0, "0..=30 Hz")?;
-        check("solver_iterations", self.solver_iterations as f32, 1.0, 16.0, "1..=16")?;
+        // One iteration lets sticks bounce: 10 extra contacts in 28 legato strokes at 250 bpm
+        // on the rearranged kit (`drumsim check`).
+        check("solver_iterations", self.solver_iterations as f32, 2.0, 16.0, "2..=16")?;
         check("feedback", self.feedback, 0.0, 2.0, "0..=2")?;
         check("ik.damping_m", self.ik.damping_m, 1e-4, 0.5, "1e-4..=0.5 m")?;
         check("ik.posture_gain", self.ik.posture_gain, 0.0, 0.5, "0..=0.5")?;

@@ -92,7 +92,14 @@ fn read_json<T: serde::de::DeserializeOwned>(path: &Path, what: &'static str) ->
 
 /// The hand bones of a SONG.motion.json as a `Motion` whose hands are those bones.
 pub fn read_motion_hands(path: &Path) -> Result<Motion, EvalError> {
-    let file: MotionFile = read_json(path, "motion")?;
+    let bytes = std::fs::read(path).map_err(|source| EvalError::Read { path: path.into(), source })?;
+    parse_motion_hands(&bytes, path)
+}
+
+/// [`read_motion_hands`] on the bytes of a file; `path` is only used in messages.
+pub fn parse_motion_hands(bytes: &[u8], path: &Path) -> Result<Motion, EvalError> {
+    let file: MotionFile =
+        serde_json::from_slice(bytes).map_err(|source| EvalError::Parse { path: path.into(), what: "motion", source })?;
     let names = ["left_hand", "right_hand"];
     let idx: Vec<usize> = names
         .iter()

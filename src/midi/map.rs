@@ -131,7 +131,7 @@ pub enum MapError {
         map: String,
         /// Ascending by note number.
         notes: Vec<UnknownNote>,
-        /// Built-in maps that know every note of the file.
+        /// Built-in maps that play every note of the file.
         suggest: Vec<&'static str>,
     },
 }
@@ -157,7 +157,7 @@ fn unknown_message(midi: &Path, map: &str, notes: &[UnknownNote], suggest: &[&st
             let names = some.join(" and ");
             let maps: Vec<String> = some.iter().map(|m| format!("--map {m}")).collect();
             format!(
-                "the built-in map{} {names} know{} them all: use {}, or your own map with --map FILE",
+                "the built-in map{} {names} play{} them all: use {}, or your own map with --map FILE",
                 if some.len() == 1 { "" } else { "s" },
                 if some.len() == 1 { "s" } else { "" },
                 maps.join(" or ")
@@ -357,6 +357,11 @@ impl NoteMap {
         }
     }
 
+    /// True when the map plays every note-on of `perf` (none unknown, none skipped).
+    pub fn plays_all(&self, perf: &Performance) -> bool {
+        perf.events.iter().all(|e| !matches!(e.kind, DrumEventKind::NoteOn { note, .. } if self.entry(note).is_none()))
+    }
+
     /// Why the map leaves `note` out, if it does.
     pub fn skip_reason(&self, note: u8) -> Option<&str> {
         self.skips.get(usize::from(note))?.as_deref()
@@ -405,7 +410,7 @@ impl NoteMap {
             .iter()
             .map(|(name, _)| *name)
             .filter(|name| self.source != format!("built-in {name}"))
-            .filter(|name| NoteMap::builtin(name).is_some_and(|m| m.unknown_notes(perf).is_empty()))
+            .filter(|name| NoteMap::builtin(name).is_some_and(|m| m.plays_all(perf)))
             .collect();
         Err(MapError::UnknownNotes {
             midi: perf.path.clone(),

@@ -37,8 +37,9 @@ pub struct PhysicalTake {
     /// stick.
     pub max_penetration_m: f32,
     pub deepest_at: (f64, String, usize),
-    /// Largest mechanical energy of the moving links, J.
+    /// Largest and smallest mechanical energy of the moving links, J.
     pub max_energy_j: f32,
+    pub min_energy_j: f32,
     /// False if any tip left the finite numbers.
     pub finite: bool,
     /// Physics steps taken (preroll included, strokes played again included).
@@ -70,6 +71,7 @@ struct Mark {
     frames: usize,
     hihat: usize,
     max_energy_j: f32,
+    min_energy_j: f32,
     finite: bool,
 }
 
@@ -82,12 +84,25 @@ pub fn play_with(
     end_s: f64,
     settings: &RehearsalSettings,
 ) -> Result<PhysicalTake, DrummerError> {
-    let mut c = Conductor::new(kit, perf, map, planned, DrummerSettings::default())?;
+    play_as(kit, perf, map, planned, end_s, settings, DrummerSettings::default())
+}
+
+/// [`play_with`] by a drummer of the given settings (`drumsim check --body`).
+pub fn play_as(
+    kit: &Kit,
+    perf: &Performance,
+    map: &NoteMap,
+    planned: &Planned,
+    end_s: f64,
+    settings: &RehearsalSettings,
+    drummer: DrummerSettings,
+) -> Result<PhysicalTake, DrummerError> {
+    let mut c = Conductor::new(kit, perf, map, planned, drummer)?;
     let frames = (end_s.max(0.0) * 60.0) as usize + 2;
     let (mut tips, mut hands, mut hihat_openness) =
         (Vec::with_capacity(frames), Vec::with_capacity(frames), Vec::new());
     let mut strikes: Vec<Strike> = Vec::new();
-    let (mut max_energy_j, mut finite) = (0.0f32, true);
+    let (mut max_energy_j, mut min_energy_j, mut finite) = (0.0f32, f32::INFINITY, true);
     let mut rehearsal = Rehearsal::new(&c, period_index(end_s) + 2, *settings);
     let mut marks: VecDeque<Mark> = VecDeque::new();
     let mut period = 0usize;
@@ -98,7 +113,7 @@ pub fn play_with(
                 marks.pop_front();
             }
             let (strikes, frames, hihat) = (strikes.len(), tips.len(), hihat_openness.len());
-            marks.push_back(Mark { state: c.snapshot(), strikes, frames, hihat, max_energy_j, finite });
+            marks.push_back(Mark { state: c.snapshot(), strikes, frames, hihat, max_energy_j, min_energy_j, finite });
         }
         period += 1;
         c.period(&mut |s| strikes.push(s));
@@ -113,7 +128,8 @@ pub fn play_with(
                 hihat_openness.push(p.hihat_openness());
             }
         }
-        max_energy_j = max_energy_j.max(c.drummer().energy_j());
+        let e = c.drummer().energy_j();
+        (max_energy_j, min_energy_j) = (max_energy_j.max(e), min_energy_j.min(e));
         if let Some(from) = rehearsal.after_period(&mut c, &strikes) {
             // The latest snapshot before the stroke's preparation (the first one if none).
             let i = marks.iter().rposition(|m| m.state.time_s() <= from).unwrap_or(0);
@@ -124,7 +140,7 @@ pub fn play_with(
             tips.truncate(m.frames);
             hands.truncate(m.frames);
             hihat_openness.truncate(m.hihat);
-            (max_energy_j, finite) = (m.max_energy_j, m.finite);
+            (max_energy_j, min_energy_j, finite) = (m.max_energy_j, m.min_energy_j, m.finite);
             rehearsal.restart(c.time_s(), strikes.len());
             // The snapshot just restored is still kept: the next is due a cadence later.
             period = 1;
@@ -153,6 +169,7 @@ pub fn play_with(
             (t - PREROLL_S, c.drummer().surfaces()[k].id.clone(), side)
         },
         max_energy_j,
+        min_energy_j,
         finite,
         steps: c.drummer().steps(),
         replays: rehearsal.replays,

@@ -174,7 +174,9 @@ impl HandModel {
             .expect("the compiled-in hand model sidecar is valid (checked by a unit test)")
     }
 
-    fn with_sidecar(weights: &HandWeights, sidecar_json: &str, side: &Path) -> Result<Self, HandsError> {
+    /// The model of `weights` with the normalisation of a checkpoint's JSON sidecar (`side` names it
+    /// in errors).
+    pub fn with_sidecar(weights: &HandWeights, sidecar_json: &str, side: &Path) -> Result<Self, HandsError> {
         let err = |reason: String| HandsError::Read { path: side.to_path_buf(), reason };
         let sidecar: Sidecar = serde_json::from_str(sidecar_json).map_err(|e| err(e.to_string()))?;
         if sidecar.normalisation.std.iter().chain(&sidecar.normalisation.mean).any(|v| !v.is_finite())
