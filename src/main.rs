@@ -156,6 +156,9 @@ enum Command {
         /// Simulated minutes of continuous play.
         #[arg(long, default_value_t = 10.0)]
         minutes: f64,
+        /// Run only the checks whose name contains this text (strokes/accent, song/, ...).
+        #[arg(long)]
+        only: Option<String>,
         /// Print the report as one JSON object.
         #[arg(long)]
         json: bool,
@@ -265,6 +268,7 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::eval::report::EvalError>()
             || e.is::<drumsim::eval::motion::MotionMetricError>()
             || e.is::<drumsim::check::BodyKeyError>()
+            || e.is::<drumsim::check::RunNothing>()
             || e.is::<drumsim::body::anthropometry::BodyError>()
     });
     if bad_input {
@@ -318,7 +322,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             drumsim::live::run(&opts)
         }
         Command::Devices => drumsim::live::list_devices(),
-        Command::Check { songs, kit, map, body, force, minutes, json } => {
+        Command::Check { songs, kit, map, body, force, minutes, only, json } => {
             use drumsim::check;
             if !(minutes.is_finite() && (0.0..=600.0).contains(&minutes)) {
                 return Err(drumsim::render::RenderInputError::Unsupported(format!(
@@ -341,7 +345,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             drummer.validate()?;
             drumsim::body::anthropometry::BodySettings::validate(drummer.body)?;
-            let opts = check::CheckOptions { kit, map, drummer, songs, minutes, progress: !json };
+            let opts = check::CheckOptions { kit, map, drummer, songs, minutes, progress: !json, only };
             let report = check::run(&opts)?;
             if json {
                 println!("{}", serde_json::to_string(&report)?);

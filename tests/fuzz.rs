@@ -142,7 +142,8 @@ fn fuzz(name: &str, seeds: &[Vec<u8>], text: bool, target: impl Fn(&[u8])) -> u6
             seeds[runs as usize].clone()
         } else {
             let base = if !last.is_empty() && rng.below(4) == 0 { last.clone() } else { seeds[rng.below(seeds.len())].clone() };
-            mutate(&mut rng, &base, &seeds[rng.below(seeds.len())], text)
+            let other = rng.below(seeds.len());
+            mutate(&mut rng, &base, &seeds[other], text)
         };
         runs += 1;
         if catch_unwind(AssertUnwindSafe(|| target(&input))).is_err() {

@@ -37,6 +37,15 @@ pub struct CheckOptions {
     pub minutes: f64,
     /// Print each check as it finishes (to stderr).
     pub progress: bool,
+    /// Run only the checks whose name contains this text (`--only strokes/accent`).
+    pub only: Option<String>,
+}
+
+impl CheckOptions {
+    /// Whether the check of this name runs.
+    pub fn runs(&self, name: &str) -> bool {
+        self.only.as_ref().is_none_or(|o| name.contains(o.as_str()))
+    }
 }
 
 /// One measure of a check against its limit.
@@ -152,17 +161,24 @@ pub fn run(opts: &CheckOptions) -> anyhow::Result<CheckReport> {
         }
         checks.push(c);
     };
-    for c in body::stroke_matrix(&opts.kit, &opts.drummer) {
+    for c in body::stroke_matrix(opts) {
         add(c);
     }
-    for c in body::extremes(&opts.kit, &opts.drummer) {
+    for c in body::extremes(opts) {
         add(c);
     }
-    add(body::long_play(&opts.kit, &opts.drummer, opts.minutes));
-    for c in songs::check_songs(&opts.kit, &opts.map, &opts.drummer, &opts.songs)? {
+    if let Some(c) = body::long_play(opts) {
         add(c);
     }
-    add(sound::barrage(&opts.kit));
+    for c in songs::check_songs(opts)? {
+        add(c);
+    }
+    if opts.runs(sound::NAME) {
+        add(sound::barrage(&opts.kit));
+    }
+    if checks.is_empty() {
+        return Err(RunNothing { only: opts.only.clone().unwrap_or_default() }.into());
+    }
     let ok = checks.iter().all(|c| c.ok);
     Ok(CheckReport { kit: opts.kit.name.clone(), map: opts.map.name.clone(), ok, checks })
 }
@@ -208,6 +224,13 @@ pub const BODY_KEYS: [&str; 11] = [
     "ik.posture_gain",
     "ik.max_step_m",
 ];
+
+/// `--only` matched no check (exit code 2).
+#[derive(Debug, thiserror::Error)]
+#[error("--only {only:?} matches no check (names start strokes/, body/, gains/, long-play/, song/, sound/)")]
+pub struct RunNothing {
+    pub only: String,
+}
 
 /// Some checks failed (exit code 1).
 #[derive(Debug, thiserror::Error)]

@@ -2,7 +2,7 @@
 //! retrieval, pedals, the rehearsal, the body at 10 kHz): rolls, flams, a fast groove and a
 //! fill made here, and the user's own songs.
 
-use super::{Check, Measure};
+use super::{Check, CheckOptions, Measure};
 use crate::body::sim::DrummerSettings;
 use crate::kit::Kit;
 use crate::midi::{DrumEvent, DrumEventKind, NoteMap, Performance};
@@ -104,17 +104,23 @@ fn check_song(name: String, perf: &Performance, kit: &Kit, map: &NoteMap, drumme
 }
 
 /// The made songs, then the user's.
-pub fn check_songs(kit: &Kit, map: &NoteMap, drummer: &DrummerSettings, songs: &[PathBuf]) -> anyhow::Result<Vec<Check>> {
+pub fn check_songs(opts: &CheckOptions) -> anyhow::Result<Vec<Check>> {
+    let (kit, map, drummer) = (&opts.kit, &opts.map, &opts.drummer);
     let gm = NoteMap::builtin("gm").expect("built-in map");
     let mut checks = Vec::new();
     for perf in made_songs() {
         let name = format!("song/{}", perf.path.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned()));
-        checks.push(check_song(name, &perf, kit, &gm, drummer)?);
+        if opts.runs(&name) {
+            checks.push(check_song(name, &perf, kit, &gm, drummer)?);
+        }
     }
-    for path in songs {
-        let opts = crate::render::RenderOptions { map: String::new(), ..Default::default() };
-        let perf = crate::render::read_song(path, map, &opts)?;
-        checks.push(check_song(format!("song/{}", display(path)), &perf, kit, map, drummer)?);
+    for path in &opts.songs {
+        let name = format!("song/{}", display(path));
+        if opts.runs(&name) {
+            let read = crate::render::RenderOptions { map: String::new(), ..Default::default() };
+            let perf = crate::render::read_song(path, map, &read)?;
+            checks.push(check_song(name, &perf, kit, map, drummer)?);
+        }
     }
     Ok(checks)
 }

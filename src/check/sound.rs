@@ -8,6 +8,8 @@ use crate::kit::{Kit, PieceKind};
 use crate::rng::Rng;
 use crate::sound::SoundEvent;
 
+/// The check's name.
+pub const NAME: &str = "sound/barrage";
 const SECONDS: f64 = 10.0;
 const STRIKES_PER_S: f64 = 400.0;
 
@@ -62,7 +64,7 @@ fn messages(kit: &Kit) -> Vec<Message> {
 
 /// Render the barrage and measure it.
 pub fn barrage(kit: &Kit) -> Check {
-    let name = "sound/barrage".to_string();
+    let name = NAME.to_string();
     let events: Result<Vec<SoundEvent>, _> = messages(kit)
         .iter()
         .map(|m| SoundEvent::from_message(m, kit, crate::render::SAMPLE_RATE_HZ as f32))
