@@ -174,7 +174,8 @@ enum Command {
         /// A reference SONG.motion.json (e.g. mocap exported through the same rig).
         #[arg(long)]
         reference: Option<PathBuf>,
-        #[arg(long, default_value = "gm")]
+        /// Note map (as for render; default auto, the map render chose).
+        #[arg(long, default_value = "auto")]
         map: String,
     },
     /// Train the hand model (the DRUMS BiLSTM) on the corpus, resuming from the checkpoint
@@ -194,8 +195,8 @@ enum Command {
         #[arg(long, default_value = "assets/hands")]
         out: PathBuf,
         /// Epochs to reach (a resumed run continues up to this count).
-        #[arg(long, default_value_t = 500)]
-        epochs: usize,
+        #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+        epochs: u32,
         /// Stop cleanly (resumable) after this many minutes.
         #[arg(long)]
         max_minutes: Option<f64>,
@@ -356,7 +357,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 Ok(())
             } else {
                 let names: Vec<&str> = report.failures().map(|c| c.name.as_str()).collect();
-                Err(check::ChecksFailed { names: names.join(", "), failed: names.len(), total: report.checks.len() }.into())
+                Err(check::ChecksFailed { names: names.join(", "), failed: names.len(), total: report.checks.len() }
+                    .into())
             }
         }
         Command::Strokes { mode, trials, json, traces, threads, kit } => {
@@ -393,12 +395,20 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Eval { song, out, reference, map } => {
-            let map = drumsim::midi::NoteMap::load(&map)?;
-            let m = drumsim::eval::report::run_eval(&song, &out, reference.as_deref(), &map)?;
+            let map =
+                if map == drumsim::midi::map::AUTO_MAP { None } else { Some(drumsim::midi::NoteMap::load(&map)?) };
+            let m = drumsim::eval::report::run_eval(&song, &out, reference.as_deref(), map.as_ref())?;
             println!("{}", serde_json::to_string(&m)?);
             Ok(())
         }
         Command::Train { train, val, gmd, mocap, out, epochs, max_minutes, velocity_weight, lr, report } => {
+            // Checked before any corpus is built: training to NaN or to nothing helps no one.
+            if let Some(lr) = lr.filter(|lr| !(lr.is_finite() && *lr > 0.0 && *lr <= 1.0)) {
+                return Err(drumsim::motion::hands::HandsError::Config(format!(
+                    "--lr {lr:e}: allowed 0 < lr <= 1 (the paper's is 1e-3)"
+                ))
+                .into());
+            }
             use drumsim::motion::{corpus, hands, mocap as mc};
             let load = |path: &PathBuf, split: &str| -> anyhow::Result<Vec<hands::Example>> {
                 if !path.exists() {
@@ -426,7 +436,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 train_set.push(hands::Example { id: e.id, roll: e.roll, hands: e.hands });
             }
             std::fs::create_dir_all(&out)?;
-            let r = hands::run_train(&train_set, &val_set, &out, epochs, max_minutes, velocity_weight, lr)?;
+            let r = hands::run_train(&train_set, &val_set, &out, epochs as usize, max_minutes, velocity_weight, lr)?;
             println!(
                 "epoch {}: best validation loss {:.5} at epoch {} -> {}",
                 r.epoch,

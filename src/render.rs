@@ -135,6 +135,9 @@ pub struct ChokeRecord {
 #[derive(Debug, Clone, Serialize)]
 pub struct ContactsFile {
     pub song: String,
+    /// The drum channel read and [`Performance::notes_fingerprint`] of its notes.
+    pub channel: u8,
+    pub notes_fingerprint: String,
     pub sound: &'static str,
     pub kit: String,
     pub map: String,
@@ -403,6 +406,8 @@ impl<'a> Carrier<'a> {
         let (tx, rx) = transport::channel(64);
         let contacts = ContactsFile {
             song: perf.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            channel: perf.channel,
+            notes_fingerprint: perf.notes_fingerprint(),
             sound,
             kit: kit.name.clone(),
             map: map.name.clone(),

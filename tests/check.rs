@@ -29,18 +29,23 @@ fn the_checks_hold_on_the_default_and_the_shipped_kits() {
         .collect();
     for run in runs {
         let (kit, o) = run.join().unwrap();
-        let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{kit:?}: {e}: {}", stderr(&o)));
-        let failed: Vec<String> = report["checks"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .filter(|c| c["ok"] != true)
-            .map(|c| c.to_string())
-            .collect();
+        let report: serde_json::Value =
+            serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{kit:?}: {e}: {}", stderr(&o)));
+        let failed: Vec<String> =
+            report["checks"].as_array().unwrap().iter().filter(|c| c["ok"] != true).map(|c| c.to_string()).collect();
         assert!(failed.is_empty(), "{kit:?}: {failed:#?}");
         assert_eq!(o.status.code(), Some(0), "{kit:?}: {}", stderr(&o));
-        let names: Vec<&str> = report["checks"].as_array().unwrap().iter().map(|c| c["name"].as_str().unwrap()).collect();
-        for want in ["strokes/accent/300bpm", "strokes/legato/40bpm", "body/tall/accent/160bpm", "long-play/0.5min", "song/roll", "song/flams", "sound/barrage"] {
+        let names: Vec<&str> =
+            report["checks"].as_array().unwrap().iter().map(|c| c["name"].as_str().unwrap()).collect();
+        for want in [
+            "strokes/accent/300bpm",
+            "strokes/legato/40bpm",
+            "body/tall/accent/160bpm",
+            "long-play/0.5min",
+            "song/roll",
+            "song/flams",
+            "sound/barrage",
+        ] {
             assert!(names.contains(&want), "{kit:?}: no check {want}: {names:?}");
         }
     }

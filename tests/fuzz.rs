@@ -45,8 +45,20 @@ impl Rng {
 /// text, numbers no config should hold.
 const BYTES: [u8; 10] = [0x00, 0x01, 0x7F, 0x80, 0xFF, 0xF0, 0xF7, 0x2F, 0x90, 0xFE];
 const NUMBERS: [&str; 14] = [
-    "0", "-0", "-1", "1e30", "-1e30", "1e308", "nan", "inf", "-inf", "4294967296", "99999999999999999999", "0.0001",
-    "127", "-128",
+    "0",
+    "-0",
+    "-1",
+    "1e30",
+    "-1e30",
+    "1e308",
+    "nan",
+    "inf",
+    "-inf",
+    "4294967296",
+    "99999999999999999999",
+    "0.0001",
+    "127",
+    "-128",
 ];
 
 /// One to four random edits of `input`, some of them taken from `other` (a second seed).
@@ -141,14 +153,19 @@ fn fuzz(name: &str, seeds: &[Vec<u8>], text: bool, target: impl Fn(&[u8])) -> u6
         let input = if (runs as usize) < seeds.len() {
             seeds[runs as usize].clone()
         } else {
-            let base = if !last.is_empty() && rng.below(4) == 0 { last.clone() } else { seeds[rng.below(seeds.len())].clone() };
+            let base = if !last.is_empty() && rng.below(4) == 0 {
+                last.clone()
+            } else {
+                seeds[rng.below(seeds.len())].clone()
+            };
             let other = rng.below(seeds.len());
             mutate(&mut rng, &base, &seeds[other], text)
         };
         runs += 1;
         if catch_unwind(AssertUnwindSafe(|| target(&input))).is_err() {
             std::fs::create_dir_all(&crashes_dir).unwrap();
-            let hash = input.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
+            let hash =
+                input.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
             let path = crashes_dir.join(format!("{name}-{hash:016x}.bin"));
             std::fs::write(&path, &input).unwrap();
             crashes.push(path);
@@ -172,9 +189,9 @@ fn fuzz_the_midi_reader() {
     let seeds: Vec<Vec<u8>> = [
         "assets/demo/demo.mid",
         "data/gmd/drummer1/session1/251_funk-purdieshuffle_130_fill_4-4.mid",
-        "data/gmd/drummer1/session1/21_jazz_120_beat_4-4.mid",
-        "data/gmd/drummer1/session2/37_latin-samba_116_fill_4-4.mid",
-        "data/gmd/drummer1/session1/4_jazz_120_beat_3-4.mid",
+        "data/gmd/drummer3/session1/21_jazz_120_beat_4-4.mid",
+        "data/gmd/drummer1/session1/37_latin-samba_116_fill_4-4.mid",
+        "data/gmd/drummer1/session2/4_jazz_120_beat_3-4.mid",
     ]
     .iter()
     .map(|p| read(p))
@@ -229,8 +246,10 @@ fn fuzz_the_kit_reader() {
 
 #[test]
 fn fuzz_the_map_reader() {
-    let seeds: Vec<Vec<u8>> =
-        ["gm", "xg", "roland-td", "alesis", "yamaha-dtx"].iter().map(|m| read(&format!("config/maps/{m}.toml"))).collect();
+    let seeds: Vec<Vec<u8>> = ["gm", "xg", "roland-td", "alesis", "yamaha-dtx"]
+        .iter()
+        .map(|m| read(&format!("config/maps/{m}.toml")))
+        .collect();
     fuzz("map", &seeds, true, |bytes| {
         let _ = NoteMap::from_toml_str(text(bytes), Path::new("fuzz.toml"));
     });

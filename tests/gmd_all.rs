@@ -1,9 +1,9 @@
 //! Every Groove MIDI file (train and validation, 1,021 takes, about 12 hours) renders in
-//! direct mode: finite, within full scale, as long as the song. Two worker threads.
+//! direct mode with the default map (auto), which plays all its notes: finite, within full
+//! scale, as long as the song. Two worker threads.
 
 use drumsim::kit::Kit;
-use drumsim::midi::NoteMap;
-use drumsim::render::{render_events, score_file, RenderOptions, SAMPLE_RATE_HZ};
+use drumsim::render::{load_song, render_events, score_performance, RenderOptions, SAMPLE_RATE_HZ};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -26,7 +26,6 @@ fn every_groove_midi_file_renders() {
     files.sort();
     assert_eq!(files.len(), 1021);
     let kit = Kit::builtin_default();
-    let map = NoteMap::load("roland-td").unwrap();
     let next = AtomicUsize::new(0);
     let failures = Mutex::new(Vec::new());
     let audio_s = Mutex::new(0.0f64);
@@ -35,7 +34,11 @@ fn every_groove_midi_file_renders() {
             s.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(song) = files.get(i) else { break };
-                let score = match score_file(song, &kit, &map, &RenderOptions::default()) {
+                // The default map (auto) plays every note of every take.
+                let score = match load_song(song, &RenderOptions::default()).and_then(|(perf, map)| {
+                    anyhow::ensure!(map.plays_all(&perf), "auto chose {}, which leaves notes out", map.source);
+                    score_performance(&perf, &kit, &map)
+                }) {
                     Ok(score) => score,
                     Err(e) => {
                         failures.lock().unwrap().push(format!("{}: {e:#}", song.display()));

@@ -190,6 +190,10 @@ fn smoke_training_lowers_validation_loss_and_resumes() {
     assert_eq!(resumed.val_loss_history.len(), 28);
     assert_eq!(resumed.val_loss_history[..25], first.val_loss_history[..]);
     assert!(resumed.best_val_loss <= first.best_val_loss);
+    // Already there: nothing to train is an error, not a claim to have written weights.
+    let again = train(&train_set, &val_set, TrainConfig { epochs: 28, ..cfg.clone() }, &dir, false, |_| {});
+    let Err(msg) = again.map_err(|e| e.to_string()) else { panic!("trained past its epochs") };
+    assert!(msg.contains("already at epoch 28") && msg.contains("nothing was trained"), "{msg}");
 
     // A spent budget stops before any epoch and leaves a resumable state.
     let stopped =

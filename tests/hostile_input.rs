@@ -498,3 +498,91 @@ fn twenty_general_midi_songs_from_debian_render_by_default_and_count_every_note(
     }
     assert!(left_out > 0, "these songs have claps, shakers and triangles");
 }
+
+#[test]
+fn eval_on_an_empty_folder_is_an_error_naming_what_is_missing_not_null_metrics() {
+    let dir = fresh_dir("eval-empty");
+    let o = drumsim(&["eval", demo().to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stdout));
+    assert!(stderr(&o).contains("demo.contacts.json") && stderr(&o).contains("drumsim render"), "{}", stderr(&o));
+}
+
+#[test]
+fn eval_refuses_another_songs_outputs_under_the_same_name() {
+    let dir = fresh_dir("eval-other");
+    let out = dir.join("out");
+    older_set(&dir, &out); // a few snare notes, rendered as groove
+    let song = dir.join("groove.mid");
+    std::fs::copy(demo(), &song).unwrap();
+    let o = drumsim(&["eval", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stdout));
+    assert!(stderr(&o).contains("groove.contacts.json") && stderr(&o).contains("other notes"), "{}", stderr(&o));
+    // Its own render measures.
+    let o = drumsim(&["render", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = drumsim(&["eval", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(m["hits"]["recall"], 1.0, "{m}");
+}
+
+#[test]
+fn eval_against_a_one_frame_reference_is_refused_instead_of_l1_zero() {
+    let dir = fresh_dir("eval-one-frame");
+    let out = dir.join("out");
+    let o = drumsim(&["render", demo().to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The render's own motion cut to its first frame.
+    let motion: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("demo.motion.json")).unwrap()).unwrap();
+    let mut one = motion.clone();
+    one["frames"] = serde_json::Value::Array(vec![motion["frames"][0].clone()]);
+    let reference = dir.join("one.motion.json");
+    std::fs::write(&reference, serde_json::to_vec(&one).unwrap()).unwrap();
+    let o = drumsim(&[
+        "eval",
+        demo().to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--reference",
+        reference.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stdout));
+    assert!(stderr(&o).contains("1 frames") && stderr(&o).contains("same song"), "{}", stderr(&o));
+}
+
+#[test]
+fn train_with_lr_1e30_or_zero_epochs_is_refused_before_any_work() {
+    let dir = fresh_dir("train-args");
+    let o = drumsim(&["train", "--lr", "1e30", "--out", dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--lr 1e30") && stderr(&o).contains("0 < lr <= 1"), "{}", stderr(&o));
+    let o = drumsim(&["train", "--epochs", "0", "--out", dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--epochs"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+}
+
+#[test]
+fn a_kit_position_of_four_numbers_is_refused_naming_the_line() {
+    let dir = fresh_dir("kit-four");
+    let kit = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/kits/default.toml")).unwrap();
+    let four = kit.replacen("position_m = [0.0, 0.62, 0.28]", "position_m = [0.0, 0.62, 0.28, 7.0]", 1);
+    assert_ne!(four, kit);
+    let path = dir.join("four.toml");
+    std::fs::write(&path, four).unwrap();
+    let o = drumsim(&[
+        "render",
+        demo().to_str().unwrap(),
+        "--kit",
+        path.to_str().unwrap(),
+        "--out",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("four.toml") && stderr(&o).contains("expected 3 numbers (x, y, z), found 4"),
+        "{}",
+        stderr(&o)
+    );
+}

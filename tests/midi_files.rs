@@ -274,7 +274,12 @@ fn unknown_note_is_named_with_its_place_and_the_map() {
     assert_eq!(notes.iter().map(|u| (u.note, u.count, u.first_tick)).collect::<Vec<_>>(), [(22, 2, 480), (26, 1, 720)]);
     assert_eq!(suggest, &["roland-td", "alesis"]);
     let msg = err.to_string();
-    for part in ["td-notes.mid", "General MIDI", "note 22 (2 times, first at 0.500 s, tick 480)", "--map roland-td or --map alesis"] {
+    for part in [
+        "td-notes.mid",
+        "General MIDI",
+        "note 22 (2 times, first at 0.500 s, tick 480)",
+        "--map roland-td or --map alesis",
+    ] {
         assert!(msg.contains(part), "{part:?} missing from: {msg}");
     }
     assert!(msg.contains("--skip-unknown") && msg.contains("--map FILE"), "{msg}");

@@ -63,7 +63,12 @@ impl Run {
 }
 
 /// Step `d` through `plans` (changing every `block_s` with `next`) for `seconds`.
-fn play(d: &mut Drummer, seconds: f64, block_s: f64, mut next: impl FnMut(&Drummer, f64, f64) -> [StrokePlan; 2]) -> Run {
+fn play(
+    d: &mut Drummer,
+    seconds: f64,
+    block_s: f64,
+    mut next: impl FnMut(&Drummer, f64, f64) -> [StrokePlan; 2],
+) -> Run {
     let mut run = Run {
         seconds,
         strokes: 0,

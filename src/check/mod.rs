@@ -185,13 +185,11 @@ pub fn run(opts: &CheckOptions) -> anyhow::Result<CheckReport> {
 
 /// `--body KEY=VALUE`: set one body or controller setting by its name.
 pub fn set_body(settings: &mut DrummerSettings, assignment: &str) -> Result<(), BodyKeyError> {
-    let (key, value) = assignment
-        .split_once('=')
-        .ok_or_else(|| BodyKeyError::Form { given: assignment.to_string() })?;
+    let (key, value) =
+        assignment.split_once('=').ok_or_else(|| BodyKeyError::Form { given: assignment.to_string() })?;
     let (key, value) = (key.trim(), value.trim());
-    let number: f32 = value
-        .parse()
-        .map_err(|_| BodyKeyError::Value { key: key.to_string(), value: value.to_string() })?;
+    let number: f32 =
+        value.parse().map_err(|_| BodyKeyError::Value { key: key.to_string(), value: value.to_string() })?;
     match key {
         "mass_kg" => settings.body.mass_kg = number,
         "height_m" => settings.body.height_m = number,

@@ -74,7 +74,13 @@ fn made_songs() -> Vec<Performance> {
 }
 
 /// Play `perf` physically and measure it.
-fn check_song(name: String, perf: &Performance, kit: &Kit, map: &NoteMap, drummer: &DrummerSettings) -> anyhow::Result<Check> {
+fn check_song(
+    name: String,
+    perf: &Performance,
+    kit: &Kit,
+    map: &NoteMap,
+    drummer: &DrummerSettings,
+) -> anyhow::Result<Check> {
     let hands = crate::render::Hands::Model(
         Box::new(crate::motion::hands::HandModel::shipped()),
         crate::motion::hands::SHIPPED_WEIGHTS_NAME.into(),
@@ -82,7 +88,8 @@ fn check_song(name: String, perf: &Performance, kit: &Kit, map: &NoteMap, drumme
     let staged = crate::render::stage_motion(perf, kit, map, &hands)?;
     let settings = crate::perform::rehearsal::RehearsalSettings::default();
     let end = perf.notes_end_s + 0.5;
-    let take = match crate::perform::offline::play_as(kit, perf, map, &staged.planned, end, &settings, drummer.clone()) {
+    let take = match crate::perform::offline::play_as(kit, perf, map, &staged.planned, end, &settings, drummer.clone())
+    {
         Ok(t) => t,
         Err(e) => return Ok(Check::failed(name, e.to_string())),
     };
@@ -109,7 +116,8 @@ pub fn check_songs(opts: &CheckOptions) -> anyhow::Result<Vec<Check>> {
     let gm = NoteMap::builtin("gm").expect("built-in map");
     let mut checks = Vec::new();
     for perf in made_songs() {
-        let name = format!("song/{}", perf.path.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned()));
+        let name =
+            format!("song/{}", perf.path.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned()));
         if opts.runs(&name) {
             checks.push(check_song(name, &perf, kit, &gm, drummer)?);
         }

@@ -65,10 +65,8 @@ fn messages(kit: &Kit) -> Vec<Message> {
 /// Render the barrage and measure it.
 pub fn barrage(kit: &Kit) -> Check {
     let name = NAME.to_string();
-    let events: Result<Vec<SoundEvent>, _> = messages(kit)
-        .iter()
-        .map(|m| SoundEvent::from_message(m, kit, crate::render::SAMPLE_RATE_HZ as f32))
-        .collect();
+    let events: Result<Vec<SoundEvent>, _> =
+        messages(kit).iter().map(|m| SoundEvent::from_message(m, kit, crate::render::SAMPLE_RATE_HZ as f32)).collect();
     let events = match events {
         Ok(e) => e,
         Err(e) => return Check::failed(name, e.to_string()),

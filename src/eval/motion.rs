@@ -149,6 +149,8 @@ pub fn mean_sd_median(x: &[f64]) -> Option<(f64, f64, f64)> {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct MotionMetrics {
     pub notes: Option<usize>,
+    /// Notes the map knows and leaves out (percussion no kit piece plays): not measured.
+    pub skipped_notes: Option<usize>,
     pub contacts: Option<usize>,
     pub hits: Option<HitRates>,
     pub timing_ms: Option<TimingMs>,
@@ -252,6 +254,17 @@ pub fn motion_metrics(
                 return Err(MotionMetricError::Invalid {
                     what: "eval reference",
                     message: format!("{} fps, the prediction has {} fps", r.fps, pred.fps),
+                });
+            }
+            // The measures compare frame by frame: a reference of another length is of
+            // another song (a 1-frame reference once gave L1 = 0).
+            let (n, m) = (r.frames.len(), pred.frames.len());
+            if n.abs_diff(m) as f64 > (0.05 * m as f64).max(r.fps) {
+                return Err(MotionMetricError::Invalid {
+                    what: "eval reference",
+                    message: format!(
+                        "{n} frames, the prediction has {m}: they must cover the same song (within 5 % or a second)"
+                    ),
                 });
             }
             let mut sum = HandMetrics { l1_m: 0.0, dtw: 0.0, jerk_rms: 0.0 };

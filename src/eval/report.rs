@@ -38,10 +38,18 @@ pub enum EvalError {
     Content { path: PathBuf, message: String },
     #[error(transparent)]
     Metric(#[from] MotionMetricError),
+    #[error(transparent)]
+    Map(#[from] crate::midi::MapError),
 }
 
 #[derive(Deserialize)]
 struct ContactsFile {
+    #[serde(default)]
+    song: String,
+    /// The drum channel the render read and the fingerprint of its notes (renders before
+    /// these fields have neither).
+    channel: Option<u8>,
+    notes_fingerprint: Option<String>,
     contacts: Vec<Contact>,
 }
 
@@ -98,8 +106,11 @@ pub fn read_motion_hands(path: &Path) -> Result<Motion, EvalError> {
 
 /// [`read_motion_hands`] on the bytes of a file; `path` is only used in messages.
 pub fn parse_motion_hands(bytes: &[u8], path: &Path) -> Result<Motion, EvalError> {
-    let file: MotionFile =
-        serde_json::from_slice(bytes).map_err(|source| EvalError::Parse { path: path.into(), what: "motion", source })?;
+    let file: MotionFile = serde_json::from_slice(bytes).map_err(|source| EvalError::Parse {
+        path: path.into(),
+        what: "motion",
+        source,
+    })?;
     let names = ["left_hand", "right_hand"];
     let idx: Vec<usize> = names
         .iter()
@@ -128,12 +139,52 @@ pub fn parse_motion_hands(bytes: &[u8], path: &Path) -> Result<Motion, EvalError
     Ok(Motion { fps: file.fps, frames })
 }
 
-/// Measure DIR/STEM.* of `song`.
-pub fn run_eval(song: &Path, dir: &Path, reference: Option<&Path>, map: &NoteMap) -> Result<MotionMetrics, EvalError> {
-    let perf = read_file(song, &ReadOptions { channel: map.channel })?;
+/// Measure DIR/STEM.* of `song`. `map` None: the map `render --map auto` would choose.
+pub fn run_eval(
+    song: &Path,
+    dir: &Path,
+    reference: Option<&Path>,
+    map: Option<&NoteMap>,
+) -> Result<MotionMetrics, EvalError> {
     let stem = song.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let contacts_path = dir.join(format!("{stem}.contacts.json"));
     let motion_path = dir.join(format!("{stem}.motion.json"));
+    if !contacts_path.exists() && !motion_path.exists() {
+        return Err(EvalError::Content {
+            path: dir.to_path_buf(),
+            message: format!(
+                "holds neither {stem}.contacts.json nor {stem}.motion.json: render the song there first (drumsim render {} --out {})",
+                song.display(),
+                dir.display()
+            ),
+        });
+    }
+    let contacts: Option<ContactsFile> =
+        if contacts_path.exists() { Some(read_json(&contacts_path, "contacts")?) } else { None };
+    let channel = contacts.as_ref().and_then(|c| c.channel).or(map.map(|m| m.channel)).unwrap_or(10);
+    let perf = read_file(song, &ReadOptions { channel })?;
+    if let Some(c) = &contacts {
+        if c.notes_fingerprint.as_ref().is_some_and(|f| *f != perf.notes_fingerprint()) {
+            return Err(EvalError::Content {
+                path: contacts_path.clone(),
+                message: format!(
+                    "is the render of other notes ({}) than {}: render {} again",
+                    if c.song.is_empty() { "another song".to_string() } else { c.song.clone() },
+                    song.display(),
+                    song.display()
+                ),
+            });
+        }
+    }
+    let auto;
+    let map = match map {
+        Some(m) => m,
+        None => {
+            auto = NoteMap::auto_for(&perf);
+            &auto
+        }
+    };
+    map.check_known(&perf)?;
     // Notes (hand and foot) with their pieces.
     let notes: Vec<(f64, &str)> = perf
         .events
@@ -143,9 +194,9 @@ pub fn run_eval(song: &Path, dir: &Path, reference: Option<&Path>, map: &NoteMap
             _ => None,
         })
         .collect();
-    let mut out = MotionMetrics { notes: Some(notes.len()), ..MotionMetrics::default() };
-    if contacts_path.exists() {
-        let contacts: ContactsFile = read_json(&contacts_path, "contacts")?;
+    let skipped: usize = map.skipped_notes(&perf).iter().map(|u| u.count).sum();
+    let mut out = MotionMetrics { notes: Some(notes.len()), skipped_notes: Some(skipped), ..MotionMetrics::default() };
+    if let Some(contacts) = contacts {
         let matches = |c: &Contact, (t, piece): (f64, &str)| {
             (c.time_s - t).abs() <= HIT_WINDOW_S + 1e-6
                 && (c.piece == piece || c.piece.strip_suffix("_rim") == Some(piece))

@@ -20,12 +20,21 @@ struct RawKit {
     pedals: Option<RawPedals>,
 }
 
+/// Exactly three numbers: serde's arrays let a fourth through unseen.
+fn three<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
+    let v: Vec<f32> = Deserialize::deserialize(d)?;
+    <[f32; 3]>::try_from(v.as_slice())
+        .map_err(|_| serde::de::Error::custom(format!("expected 3 numbers (x, y, z), found {}", v.len())))
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawPedals {
+    #[serde(deserialize_with = "three")]
     kick_axle_m: [f32; 3],
     beater_length_m: f32,
     beater_rest_deg: f32,
+    #[serde(deserialize_with = "three")]
     hihat_pedal_m: [f32; 3],
     hihat_travel_m: f32,
 }
@@ -35,7 +44,9 @@ struct RawPedals {
 struct RawPiece {
     id: String,
     kind: String,
+    #[serde(deserialize_with = "three")]
     position_m: [f32; 3],
+    #[serde(deserialize_with = "three")]
     normal: [f32; 3],
     radius_m: f32,
     fundamental_hz: f32,

@@ -23,10 +23,8 @@ pub const BUILTIN_MAPS: [(&str, &str); 6] = [
 /// notes ([`NoteMap::auto_for`]).
 pub const AUTO_MAP: &str = "auto";
 
-/// The maps `--map auto` chooses among, in the order it prefers on a tie: General MIDI first,
-/// except for a file with hi-hat pedal data (CC4), which an e-kit recorded.
-const AUTO_PLAIN: [&str; 4] = ["gm", "roland-td", "alesis", "yamaha-dtx"];
-const AUTO_EKIT: [&str; 4] = ["roland-td", "alesis", "yamaha-dtx", "gm"];
+/// The maps `--map auto` chooses among, in the order it prefers on a tie.
+const AUTO_MAPS: [&str; 4] = ["gm", "roland-td", "alesis", "yamaha-dtx"];
 
 /// Where on a piece a note strikes. The kit config gives each zone its radius.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Deserialize)]
@@ -205,23 +203,24 @@ impl NoteMap {
     }
 
     /// The built-in map for `perf` when the user named none: General MIDI, Roland TD, Alesis
-    /// or Yamaha DTX, whichever knows the most of its note-ons (played or skipped), and plays
-    /// some. A tie goes
-    /// to General MIDI, or to the e-kit maps when the file has hi-hat pedal data (CC4), which
-    /// e-kits send. Its source says it was chosen ("auto: built-in roland-td").
+    /// or Yamaha DTX, in that order of preference, whichever knows the most of its note-ons
+    /// and plays some. For a file with hi-hat pedal data (CC4), which e-kits send, a note a
+    /// map knows but skips counts against it too: GM's 58 is a vibraslap, an e-kit's the
+    /// floor tom's rim. Its source says it was chosen ("auto: built-in roland-td").
     pub fn auto_for(perf: &Performance) -> NoteMap {
         let has_cc4 = perf.events.iter().any(|e| matches!(e.kind, DrumEventKind::HiHatPedal { .. }));
-        let order = if has_cc4 { AUTO_EKIT } else { AUTO_PLAIN };
-        let mut map = order
+        let mut map = AUTO_MAPS
             .iter()
             .map(|name| NoteMap::builtin(name).expect("built-in map"))
             .min_by_key(|m| {
-                let unknown: usize = m.unknown_notes(perf).iter().map(|u| u.count).sum();
+                let count = |u: Vec<UnknownNote>| u.iter().map(|u| u.count).sum::<usize>();
+                let unknown = count(m.unknown_notes(perf));
+                let skipped = if has_cc4 { count(m.skipped_notes(perf)) } else { 0 };
                 let plays_none = !perf
                     .events
                     .iter()
                     .any(|e| matches!(e.kind, DrumEventKind::NoteOn { note, .. } if m.entry(note).is_some()));
-                (unknown, plays_none)
+                (unknown, skipped, plays_none)
             })
             .expect("four candidates");
         map.source = format!("auto: {}", map.source);
@@ -540,7 +539,9 @@ mod tests {
         };
         let auto = |notes: &[u8], cc4| NoteMap::auto_for(&perf(notes, cc4)).source;
         assert_eq!(auto(&[36, 38, 42, 39, 54], false), "auto: built-in gm", "claps and tambourine are GM");
-        assert_eq!(auto(&[36, 38, 42], true), "auto: built-in roland-td", "an e-kit sends CC4");
+        assert_eq!(auto(&[36, 38, 42], true), "auto: built-in gm", "a tie goes to General MIDI");
+        assert_eq!(auto(&[36, 38, 58], true), "auto: built-in roland-td", "58 is a rim to an e-kit that sends CC4");
+        assert_eq!(auto(&[36, 38, 58], false), "auto: built-in gm", "and a vibraslap in a GM song");
         assert_eq!(auto(&[36, 38, 22, 26], false), "auto: built-in roland-td", "hi-hat edges are TD notes");
         assert_eq!(auto(&[33, 31, 85], true), "auto: built-in yamaha-dtx");
         assert_eq!(auto(&[33, 31, 85], false), "auto: built-in yamaha-dtx", "gm knows them but plays none");

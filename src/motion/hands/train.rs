@@ -463,6 +463,14 @@ pub fn train(
     let vel = velocity_weights(train, &norm, cfg.velocity_weight);
     let over_budget = || cfg.max_minutes.is_some_and(|m| start.elapsed().as_secs_f64() > m * 60.0);
 
+    if state.epoch >= cfg.epochs {
+        return Err(HandsError::Config(format!(
+            "epochs {}: {} is already at epoch {}; nothing was trained or written (raise the epochs to go on)",
+            cfg.epochs,
+            dir.display(),
+            state.epoch
+        )));
+    }
     while state.epoch < cfg.epochs {
         let epoch = state.epoch + 1;
         let t0 = Instant::now();
@@ -511,6 +519,16 @@ pub fn train(
         }
         let train_loss = (loss_sum / n.max(1) as f64) as f32;
         let val_loss = evaluate(&model, val, &val_crops, &cfg, &norm, &vel);
+        if !(train_loss.is_finite() && val_loss.is_finite()) {
+            // Diverged: the checkpoints of the last good epoch stay as they are.
+            return Err(HandsError::Config(format!(
+                "training diverged at epoch {epoch} (train loss {train_loss}, validation loss {val_loss}) with lr {}; \
+                 {} and {} keep the last good epoch's weights: lower --lr",
+                cfg.lr,
+                paths.best.display(),
+                paths.last.display()
+            )));
+        }
         state.epoch = epoch;
         state.val_loss = val_loss;
         state.train_loss_history.push(train_loss);
