@@ -16,7 +16,7 @@ fn main() -> anyhow::Result<()> {
         Err(_) => Kit::builtin_default(),
     };
     // MAP=roland-td for Groove MIDI takes.
-    let map = NoteMap::load(&std::env::var("MAP").unwrap_or(RenderOptions::default().map))?;
+    let map = NoteMap::load(&std::env::var("MAP").unwrap_or("gm".into()))?;
     let opts = RenderOptions::default();
     let hands = load_hands(&opts)?;
     let verbose = std::env::var("VERBOSE").is_ok();

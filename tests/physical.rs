@@ -318,10 +318,11 @@ fn a_varied_handful_of_takes_is_played_on_time() {
 #[test]
 fn the_physical_demo_sounds_like_the_direct_one_note_by_note() {
     use drumsim::eval::note_sound::{compare, summarize};
-    use drumsim::render::{load_hands, read_song, score_performance, score_physical, stage_motion, RenderOptions};
+    use drumsim::render::{load_hands, load_song, score_performance, score_physical, stage_motion, RenderOptions};
     let opts = RenderOptions::default();
-    let (kit, map) = (Kit::builtin_default(), NoteMap::load(&opts.map).unwrap());
-    let perf = read_song(&root().join("assets/demo/demo.mid"), &map, &opts).unwrap();
+    let kit = Kit::builtin_default();
+    let (perf, map) = load_song(&root().join("assets/demo/demo.mid"), &opts).unwrap();
+    assert_eq!(map.source, "auto: built-in gm");
     let direct = score_performance(&perf, &kit, &map).unwrap();
     let mut staged = stage_motion(&perf, &kit, &map, &load_hands(&opts).unwrap()).unwrap();
     let (physical, _) = score_physical(&perf, &kit, &map, &mut staged).unwrap();
