@@ -9,6 +9,8 @@ packages=(pkg-config libasound2-dev libjack-jackd2-dev jackd2 gcc libc6-dev)
 packages+=(assimp-utils)
 # The General MIDI tests render songs from the wild: OpenTTD's and Planet Blupi's music.
 packages+=(openttd-openmsx planetblupi-music-midi)
+# GNU time measures a render's peak memory in the tests.
+packages+=(time)
 command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"

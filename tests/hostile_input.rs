@@ -586,3 +586,44 @@ fn a_kit_position_of_four_numbers_is_refused_naming_the_line() {
         stderr(&o)
     );
 }
+
+/// Peak memory of `drumsim render SONG --out OUT` (with motion), kB, by GNU time.
+fn render_peak_kb(song: &Path, out: &Path) -> f64 {
+    let o = Command::new("/usr/bin/time")
+        .args(["-f", "peak %M kB", env!("CARGO_BIN_EXE_drumsim"), "render", song.to_str().unwrap()])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    err.lines()
+        .find_map(|l| l.strip_prefix("peak ")?.strip_suffix(" kB")?.parse().ok())
+        .unwrap_or_else(|| panic!("no peak in: {err}"))
+}
+
+#[test]
+fn a_render_s_memory_grows_with_the_song_at_under_2_gb_for_two_hours() {
+    // Ten minutes of eighth-note hi-hats, kick and snare at 120 bpm, with motion. The fixed
+    // part (the demo's peak: hand model, library, engine) plus the ten minutes' growth
+    // times twelve must stay under 2 GB (a 2-hour render measured 1.48 GB).
+    assert!(Path::new("/usr/bin/time").exists(), "install GNU time (scripts/setup-debian.sh)");
+    let dir = fresh_dir("memory");
+    let mut track = Vec::new();
+    for beat in 0..1200u32 {
+        let drum = if beat % 2 == 0 { 36 } else { 38 };
+        // Two eighths (240 ticks each, VLQ 0x81 0x70) a beat.
+        track.extend_from_slice(&[
+            0x00, 0x99, 42, 90, 0x00, 0x99, drum, 110, 0x81, 0x70, 0x89, 42, 0x00, 0x00, 0x89, drum, 0x00,
+        ]);
+        track.extend_from_slice(&[0x00, 0x99, 42, 60, 0x81, 0x70, 0x89, 42, 0x00]);
+    }
+    track.extend_from_slice(&[0x00, 0xFF, 0x2F, 0x00]);
+    let song = dir.join("ten.mid");
+    std::fs::write(&song, smf(&track)).unwrap();
+    let base_kb = render_peak_kb(&demo(), &dir.join("demo"));
+    let ten_kb = render_peak_kb(&song, &dir.join("out"));
+    let two_hours_gb = (base_kb + (ten_kb - base_kb).max(0.0) * 12.0) * 1e3 / 1e9;
+    eprintln!("demo {:.0} MB, ten minutes {:.0} MB: two hours {two_hours_gb:.2} GB", base_kb / 1e3, ten_kb / 1e3);
+    assert!(two_hours_gb < 2.0, "demo {:.0} MB, ten minutes {:.0} MB", base_kb / 1e3, ten_kb / 1e3);
+    let _ = std::fs::remove_dir_all(&dir);
+}
