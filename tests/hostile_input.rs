@@ -627,3 +627,29 @@ fn a_render_s_memory_grows_with_the_song_at_under_2_gb_for_two_hours() {
     assert!(two_hours_gb < 2.0, "demo {:.0} MB, ten minutes {:.0} MB", base_kb / 1e3, ten_kb / 1e3);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn eval_counts_notes_the_map_does_not_know_instead_of_dropping_them_silently() {
+    let dir = fresh_dir("eval-unknown");
+    let out = dir.join("out");
+    let song = dir.join("odd.mid");
+    // A snare, then note 100, which no map knows.
+    std::fs::write(&song, song_of(&[38, 100, 38])).unwrap();
+    let o = drumsim(&["render", song.to_str().unwrap(), "--skip-unknown", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("1 x note 100 (not in the map)"), "{}", stderr(&o));
+    let o = drumsim(&["eval", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((m["notes"].as_u64(), m["skipped_notes"].as_u64()), (Some(2), Some(1)), "{m}");
+    // Notes the map skips on purpose are counted the same way.
+    let song = dir.join("clap.mid");
+    std::fs::write(&song, song_of(&[38, 39, 38])).unwrap();
+    let o = drumsim(&["render", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = drumsim(&["eval", song.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((m["notes"].as_u64(), m["skipped_notes"].as_u64()), (Some(2), Some(1)), "{m}");
+    assert_eq!(m["hits"]["recall"], 1.0, "{m}");
+}

@@ -149,7 +149,8 @@ pub fn mean_sd_median(x: &[f64]) -> Option<(f64, f64, f64)> {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct MotionMetrics {
     pub notes: Option<usize>,
-    /// Notes the map knows and leaves out (percussion no kit piece plays): not measured.
+    /// Notes the map leaves out (percussion no kit piece plays) or does not know: counted
+    /// here, not measured.
     pub skipped_notes: Option<usize>,
     pub contacts: Option<usize>,
     pub hits: Option<HitRates>,

@@ -184,7 +184,6 @@ pub fn run_eval(
             &auto
         }
     };
-    map.check_known(&perf)?;
     // Notes (hand and foot) with their pieces.
     let notes: Vec<(f64, &str)> = perf
         .events
@@ -194,7 +193,8 @@ pub fn run_eval(
             _ => None,
         })
         .collect();
-    let skipped: usize = map.skipped_notes(&perf).iter().map(|u| u.count).sum();
+    // Notes the map skips or does not know are not measured; they are counted.
+    let skipped: usize = map.skipped_notes(&perf).iter().chain(&map.unknown_notes(&perf)).map(|u| u.count).sum();
     let mut out = MotionMetrics { notes: Some(notes.len()), skipped_notes: Some(skipped), ..MotionMetrics::default() };
     if let Some(contacts) = contacts {
         let matches = |c: &Contact, (t, piece): (f64, &str)| {
