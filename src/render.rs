@@ -444,7 +444,22 @@ impl<'a> Carrier<'a> {
 /// Turn a performance into messages, carry them as OSC bytes through an in-process channel
 /// exactly as the physics sends them, and decode them into sound events.
 pub fn score_performance(perf: &Performance, kit: &Kit, map: &NoteMap) -> anyhow::Result<Score> {
+    score_direct(perf, kit, map, None)
+}
+
+/// Direct mode with the motion stage's hands, when there is a motion: each hand note's
+/// contact names the hand that strikes it in the motion files.
+pub fn score_direct(
+    perf: &Performance,
+    kit: &Kit,
+    map: &NoteMap,
+    planned: Option<&crate::motion::pipeline::Planned>,
+) -> anyhow::Result<Score> {
     let mut director = Director::new(kit, map).map_err(RenderInputError::from)?;
+    if let Some(p) = planned {
+        let hands = p.notes.iter().zip(&p.report.hands);
+        director.set_sticking(hands.filter_map(|(n, h)| Some((n.time_s, kit.pieces.get(n.piece)?.id.clone(), (*h)?))));
+    }
     director.note_openness = !perf.events.iter().any(|e| matches!(e.kind, DrumEventKind::HiHatPedal { .. }));
     let mut carrier = Carrier::new(perf, kit, map, "direct");
     let mut msgs = Vec::new();
@@ -617,22 +632,18 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
         .to_string_lossy()
         .into_owned();
     // The hand model is read before anything is written: bad weights stop the render early.
-    let (score, hands, staged, physical) = match opts.sound {
+    let (score, staged, physical) = match opts.sound {
         SoundMode::Direct => {
-            let score = score_performance(&perf, &kit, &map)?;
-            (score, if opts.motion { Some((load_hands(opts)?, perf)) } else { None }, None, None)
+            let staged = if opts.motion { Some(stage_motion(&perf, &kit, &map, &load_hands(opts)?)?) } else { None };
+            let score = score_direct(&perf, &kit, &map, staged.as_ref().map(|s| &s.planned))?;
+            (score, staged, None)
         }
         SoundMode::Physical => {
             let hands = load_hands(opts)?;
             let mut staged = stage_motion(&perf, &kit, &map, &hands)?;
             let (score, summary) = score_physical(&perf, &kit, &map, &mut staged)?;
-            (score, None, Some(staged).filter(|_| opts.motion), Some(summary))
+            (score, Some(staged).filter(|_| opts.motion), Some(summary))
         }
-    };
-    let staged = match (staged, hands) {
-        (Some(staged), _) => Some(staged),
-        (None, Some((hands, perf))) => Some(stage_motion(&perf, &kit, &map, &hands)?),
-        (None, None) => None,
     };
     std::fs::create_dir_all(&opts.out_dir)
         .map_err(|e| anyhow::anyhow!("cannot create output directory {}: {e}", opts.out_dir.display()))?;

@@ -299,3 +299,46 @@ fn a_failed_render_keeps_the_previous_complete_wav() {
     assert_eq!(std::fs::read(out.join("song.wav")).unwrap(), before, "the earlier WAV was changed");
     assert!(files_in(&out).iter().all(|n| !n.contains("partial")));
 }
+
+#[test]
+fn a_direct_render_names_the_hand_that_strikes_in_its_motion() {
+    use drumsim::render::{load_hands, load_song, stage_motion};
+    // A fill around the toms (where the simple sticking rule disagreed with the motion on
+    // about half the notes) and a funk take with ghost notes.
+    for take in
+        ["drummer1/session1/251_funk-purdieshuffle_130_fill_4-4.mid", "drummer1/session1/1_funk_80_beat_4-4.mid"]
+    {
+        let song = gmd(take);
+        let out = fresh_dir("limb");
+        let o = render_cli(&song, &out, &[]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stem = song.file_stem().unwrap().to_str().unwrap();
+        let contacts: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join(format!("{stem}.contacts.json"))).unwrap()).unwrap();
+        // The hands the motion stage planned (the motion files show them).
+        let opts = RenderOptions::default();
+        let kit = Kit::builtin_default();
+        let (perf, map) = load_song(&song, &opts).unwrap();
+        let staged = stage_motion(&perf, &kit, &map, &load_hands(&opts).unwrap()).unwrap();
+        let planned: Vec<(i64, String, u64)> = staged
+            .planned
+            .notes
+            .iter()
+            .zip(&staged.planned.report.hands)
+            .filter_map(|(n, h)| Some(((n.time_s * 1e6).round() as i64, kit.pieces[n.piece].id.clone(), (*h)? as u64)))
+            .collect();
+        let (mut same, mut compared) = (0, 0);
+        for c in contacts["contacts"].as_array().unwrap() {
+            let (limb, piece) = (c["limb"].as_u64().unwrap(), c["piece"].as_str().unwrap());
+            let Some(t) = c["note"]["time_s"].as_f64().filter(|_| limb <= 1) else { continue };
+            let us = (t * 1e6).round() as i64;
+            if let Some(p) = planned.iter().find(|p| p.0 == us && p.1 == piece) {
+                compared += 1;
+                same += usize::from(p.2 == limb);
+            }
+        }
+        eprintln!("{take}: {same} of {compared} hand contacts name the motion's hand");
+        assert!(compared >= 10, "{take}: {compared}");
+        assert_eq!(same, compared, "{take}");
+    }
+}

@@ -37,6 +37,10 @@ pub struct Director {
     pub note_openness: bool,
     last_hand_s: [f64; 2],
     count: u64,
+    /// The hand the motion stage gave each hand note, (onset in microseconds, piece, hand)
+    /// sorted by time: a render with motion sends the hand that strikes in SONG.glb, not
+    /// the simple rule.
+    sticking: Vec<(i64, String, Limb)>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -80,7 +84,28 @@ impl Director {
             note_openness: true,
             last_hand_s: [-1.0; 2],
             count: 0,
+            sticking: Vec::new(),
         })
+    }
+
+    /// Take each hand note's hand from the motion stage: `(onset s, piece id, hand)`, hand 0
+    /// left and 1 right. Notes not listed keep the simple rule.
+    pub fn set_sticking(&mut self, hands: impl IntoIterator<Item = (f64, String, usize)>) {
+        self.sticking = hands
+            .into_iter()
+            .map(|(t, piece, hand)| {
+                let limb = if hand == 0 { Limb::LeftHand } else { Limb::RightHand };
+                ((t * 1e6).round() as i64, piece, limb)
+            })
+            .collect();
+        self.sticking.sort_by_key(|s| s.0);
+    }
+
+    /// The motion stage's hand for a note on `piece` at `t`, if it gave one.
+    fn planned_hand(&self, t: f64, piece: &str) -> Option<Limb> {
+        let us = (t * 1e6).round() as i64;
+        let from = self.sticking.partition_point(|s| s.0 < us);
+        self.sticking[from..].iter().take_while(|s| s.0 == us).find(|s| s.1 == piece).map(|s| s.2)
     }
 
     /// True if the map knows this note.
@@ -116,7 +141,16 @@ impl Director {
         let (limb, mass_kg) = match (plan.zone, plan.is_kick, plan.is_hihat) {
             (Zone::Pedal, true, _) => (Limb::RightFoot, self.strike.beater_mass_kg),
             (Zone::Pedal, _, true) => (Limb::LeftFoot, self.strike.hihat_foot_mass_kg),
-            _ => (self.pick_hand(t, &plan), self.strike.stick_mass_kg),
+            _ => {
+                let hand = match self.planned_hand(t, &plan.piece) {
+                    Some(limb) => {
+                        self.last_hand_s[limb as usize] = t;
+                        limb
+                    }
+                    None => self.pick_hand(t, &plan),
+                };
+                (hand, self.strike.stick_mass_kg)
+            }
         };
         if plan.is_hihat {
             let openness =
