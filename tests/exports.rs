@@ -319,6 +319,15 @@ fn glb_has_the_skin_and_one_animation_and_validates() {
     let bytes = std::fs::read(&path).unwrap();
     let doc = glb_json(&bytes);
     assert_eq!(doc["skins"][0]["joints"].as_array().unwrap().len(), 57);
+    // The rest (bind) pose stands on the floor: its lowest joint at y = 0, none below.
+    let nodes = doc["nodes"].as_array().unwrap();
+    let mut rest: Vec<Vector3<f32>> = Vec::new();
+    for i in 0..57 {
+        let parent = (0..i).find(|&p| nodes[p]["children"].as_array().is_some_and(|c| c.iter().any(|c| c == i)));
+        rest.push(parent.map_or(Vector3::zeros(), |p| rest[p]) + v3(&nodes[i]["translation"]));
+    }
+    let lowest = rest.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+    assert!(lowest.abs() < 1e-4, "the rest pose's lowest joint is at y = {lowest} m");
     // The animated skeleton is the rig's, in metres and Y-up.
     let bin = &bytes[20 + u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize + 8..];
     let poses = drumsim::motion::body_ik::solve_motion(&rig, &motion);

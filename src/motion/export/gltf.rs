@@ -1,7 +1,8 @@
 //! `SONG.glb`: binary glTF 2.0 with the rig as a skin and the motion as one animation.
 //!
 //! Layout: nodes 0..57 are the bones (node i = rig bone i, rest translation = the bone's
-//! offset, rest rotation identity), node 57 carries a small skinned mesh (a tetrahedron
+//! offset, the hips' lifted so that the rest pose stands on the floor, rest rotation
+//! identity), node 57 carries a small skinned mesh (a tetrahedron
 //! along each bone, weighted 1 to it) so that any viewer shows the figure; skin 0 lists the
 //! 57 joints with their inverse bind matrices. Animation 0 has 60 fps LINEAR samplers: the
 //! translation of the root (hips) and the rotation of every bone, keyed on every frame.
@@ -105,7 +106,14 @@ fn clean(v: f32) -> f32 {
 fn build(baked: &Baked) -> Vec<u8> {
     let rig = baked.rig;
     let n = rig.bones.len();
-    let rest = rig.rest_positions();
+    // The rig's rest pose has the hips at their seated height and the legs straight down,
+    // so its feet would sink 35 cm through the floor: the bind pose stands, lifted until
+    // its lowest joint touches the floor. (The animation sets the hips' place every frame.)
+    let mut rest = rig.rest_positions();
+    let lift = (-rest.iter().map(|p| p.z).fold(f32::INFINITY, f32::min)).max(0.0);
+    for p in &mut rest {
+        p.z += lift;
+    }
     let mut bin = Bin::default();
 
     // Inverse bind matrices: every rest rotation is identity, so each is a translation.
@@ -169,7 +177,8 @@ fn build(baked: &Baked) -> Vec<u8> {
         .iter()
         .enumerate()
         .map(|(i, b)| {
-            let mut node = json!({"name": b.name, "translation": y_up(b.offset)});
+            let offset = if b.parent.is_none() { b.offset + Vector3::z() * lift } else { b.offset };
+            let mut node = json!({"name": b.name, "translation": y_up(offset)});
             let children: Vec<usize> = (0..n).filter(|&c| rig.bones[c].parent == Some(i)).collect();
             if !children.is_empty() {
                 node["children"] = json!(children);
