@@ -154,6 +154,17 @@ fn drummer_for(kit: &Kit, settings: &DrummerSettings, style: Style) -> Result<Dr
     Drummer::new(kit, s).map_err(|e| e.to_string())
 }
 
+/// One check: `style` at `bpm` for `seconds`, both hands.
+fn style_at(name: String, kit: &Kit, settings: &DrummerSettings, style: Style, bpm: f64, seconds: f64) -> Check {
+    match drummer_for(kit, settings, style) {
+        Ok(mut d) => {
+            let run = play(&mut d, seconds, seconds, |d, t0, len| plans_at(d, style, bpm, t0, len));
+            Check::new(name, run.seconds, run.measures())
+        }
+        Err(why) => Check::failed(name, why),
+    }
+}
+
 /// Every stroke style at every tempo of [`TEMPOS_BPM`].
 pub fn stroke_matrix(opts: &CheckOptions) -> Vec<Check> {
     let (kit, settings) = (&opts.kit, &opts.drummer);
@@ -164,14 +175,7 @@ pub fn stroke_matrix(opts: &CheckOptions) -> Vec<Check> {
             if !opts.runs(&name) {
                 continue;
             }
-            let seconds = (8.0 * 60.0 / bpm).max(3.0);
-            checks.push(match drummer_for(kit, settings, style) {
-                Ok(mut d) => {
-                    let run = play(&mut d, seconds, seconds, |d, t0, len| plans_at(d, style, bpm, t0, len));
-                    Check::new(name, run.seconds, run.measures())
-                }
-                Err(why) => Check::failed(name, why),
-            });
+            checks.push(style_at(name, kit, settings, style, bpm, (8.0 * 60.0 / bpm).max(3.0)));
         }
     }
     checks
@@ -206,14 +210,7 @@ pub fn extremes(opts: &CheckOptions) -> Vec<Check> {
             if !opts.runs(&name) {
                 continue;
             }
-            let seconds = 3.0;
-            checks.push(match drummer_for(kit, &s, style) {
-                Ok(mut d) => {
-                    let run = play(&mut d, seconds, seconds, |d, t0, len| plans_at(d, style, bpm, t0, len));
-                    Check::new(name, run.seconds, run.measures())
-                }
-                Err(why) => Check::failed(name, why),
-            });
+            checks.push(style_at(name, kit, &s, style, bpm, 3.0));
         }
     }
     checks
