@@ -11,6 +11,8 @@ packages+=(assimp-utils)
 packages+=(openttd-openmsx planetblupi-music-midi)
 # GNU time measures a render's peak memory in the tests.
 packages+=(time)
+# The viewer (`drumsim view`) is tested in a real headless Chromium.
+packages+=(chromium)
 command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"

@@ -18,3 +18,4 @@ pub mod perform;
 pub mod render;
 pub mod rng;
 pub mod sound;
+pub mod view;

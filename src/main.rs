@@ -62,6 +62,24 @@ enum Command {
         /// hand model.
         #[arg(long)]
         teacher: bool,
+        /// Then show the render in the viewer (as `drumsim view`), on --port.
+        #[arg(long, conflicts_with = "no_motion")]
+        view: bool,
+        /// The viewer's port on 127.0.0.1 with --view (default: a free one).
+        #[arg(long, default_value_t = 0, requires = "view")]
+        port: u16,
+    },
+    /// Watch a render: serves a page on 127.0.0.1 (its address printed) that plays
+    /// OUT/SONG.wav with the drummer and kit of OUT/SONG.glb, lighting each struck piece.
+    View {
+        /// The render: OUT/SONG, or any of its files (OUT/SONG.wav, OUT/SONG.glb, ...).
+        render: PathBuf,
+        /// Port on 127.0.0.1 (default: a free one).
+        #[arg(long, default_value_t = 0)]
+        port: u16,
+        /// Launch the desktop's default browser on the page.
+        #[arg(long)]
+        open: bool,
     },
     /// Play a live MIDI input (e-kit, keyboard) through the speakers.
     Live {
@@ -271,6 +289,7 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::check::BodyKeyError>()
             || e.is::<drumsim::check::RunNothing>()
             || e.is::<drumsim::body::anthropometry::BodyError>()
+            || e.is::<drumsim::view::ViewError>()
     });
     if bad_input {
         2
@@ -287,7 +306,22 @@ fn physical_not_built() -> anyhow::Error {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Render { song, out, sound, kit, map, channel, skip_unknown, no_motion, weights, teacher } => {
+        Command::View { render, port, open } => Ok(drumsim::view::run(&render, port, open)?),
+        Command::Render {
+            song,
+            out,
+            sound,
+            kit,
+            map,
+            channel,
+            skip_unknown,
+            no_motion,
+            weights,
+            teacher,
+            view,
+            port,
+        } => {
+            let shown = song.file_stem().map(|stem| out.join(stem));
             let opts = drumsim::render::RenderOptions {
                 out_dir: out,
                 kit,
@@ -305,7 +339,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let report = drumsim::render::render_file(&song, &opts)?;
             eprintln!("{report}");
-            Ok(())
+            match shown.filter(|_| view) {
+                Some(path) => Ok(drumsim::view::run(&path, port, false)?),
+                None => Ok(()),
+            }
         }
         Command::Live { midi, audio, lookahead_ms, sound, kit, map, channel, duration_s } => {
             if matches!(sound, SoundMode::Physical) {

@@ -261,13 +261,14 @@ pub fn stage_motion(perf: &Performance, kit: &Kit, map: &NoteMap, hands: &Hands)
 /// `set`, to be published with the rest of the render.
 pub fn stage_motion_files(
     staged: &Staged,
+    kit: &Kit,
     out_dir: &Path,
     stem: &str,
     set: &mut OutputSet,
 ) -> anyhow::Result<MotionOutput> {
     use crate::motion::{export, rig::Rig};
     let started = Instant::now();
-    let paths = export::stage_all(&staged.planned.motion, &Rig::default(), out_dir, stem, set)?;
+    let paths = export::stage_all(&staged.planned.motion, &Rig::default(), Some(kit), out_dir, stem, set)?;
     Ok(MotionOutput {
         paths,
         hands_from: staged.hands_from.clone(),
@@ -654,7 +655,7 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
     let json_path = opts.out_dir.join(format!("{stem}.contacts.json"));
     let json = serde_json::to_vec_pretty(&score.contacts)?;
     write_synced(&set.stage(&json_path), &json).map_err(|e| WriteError { path: json_path.clone(), source: e })?;
-    let motion = staged.map(|s| stage_motion_files(&s, &opts.out_dir, &stem, &mut set)).transpose()?;
+    let motion = staged.map(|s| stage_motion_files(&s, &kit, &opts.out_dir, &stem, &mut set)).transpose()?;
     let total = ((score.duration_s + 2.0) * SAMPLE_RATE_HZ as f64) as u64;
     let bar = if opts.progress { indicatif::ProgressBar::new(total) } else { indicatif::ProgressBar::hidden() };
     bar.set_style(

@@ -67,7 +67,7 @@ fn motion_json_holds_bones_tips_face_and_hihat_per_frame() {
     let rig = Rig::default();
     let motion = synthetic_motion(&rig, 3.0);
     let dir = out_dir("json");
-    let paths = export::write_all(&motion, &rig, &dir, "groove").unwrap();
+    let paths = export::write_all(&motion, &rig, None, &dir, "groove").unwrap();
     assert_eq!(paths.json, dir.join("groove.motion.json"));
     let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&paths.json).unwrap()).unwrap();
     assert_eq!(doc["fps"].as_f64(), Some(60.0));
@@ -375,15 +375,15 @@ fn bad_motion_and_bad_folders_are_errors_that_write_nothing() {
     let rig = Rig::default();
     let dir = out_dir("bad");
     let empty = Motion { fps: FPS, frames: vec![] };
-    let err = export::write_all(&empty, &rig, &dir, "empty").unwrap_err();
+    let err = export::write_all(&empty, &rig, None, &dir, "empty").unwrap_err();
     assert!(matches!(err, ExportError::BadMotion { .. }), "{err}");
     let mut short_face = synthetic_motion(&rig, 0.1);
     short_face.frames[3].face.pop();
-    let err = export::write_all(&short_face, &rig, &dir, "face").unwrap_err();
+    let err = export::write_all(&short_face, &rig, None, &dir, "face").unwrap_err();
     assert!(err.to_string().contains("frame 3"), "{err}");
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
     let missing: &Path = &dir.join("no/such/folder");
-    let err = export::write_all(&synthetic_motion(&rig, 0.1), &rig, missing, "song").unwrap_err();
+    let err = export::write_all(&synthetic_motion(&rig, 0.1), &rig, None, missing, "song").unwrap_err();
     assert!(err.to_string().contains("no/such/folder"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -9,6 +9,8 @@
 //! Axes are glTF's (Y-up, the drummer facing +Z), metres. Written by hand: a JSON chunk and
 //! a BIN chunk, every buffer view 4-byte aligned.
 
+use super::scene::{self, Material};
+use super::shapes::Shape;
 use super::{write_file, write_one, y_up, y_up_rot, Baked, ExportError};
 use crate::motion::rig::Rig;
 use crate::motion::track::Motion;
@@ -19,6 +21,7 @@ use std::path::Path;
 
 const FLOAT: u32 = 5126;
 const UNSIGNED_SHORT: u32 = 5123;
+const UNSIGNED_INT: u32 = 5125;
 const ARRAY_BUFFER: u32 = 34962;
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
 
@@ -127,18 +130,22 @@ fn build(baked: &Baked) -> Vec<u8> {
     let v = bin.floats(&ibm, None);
     let ibm_acc = bin.accessor(v, FLOAT, n, "MAT4", None);
 
-    // The bone shapes.
-    let (positions, joints, weights, indices) = bone_shapes(rig, &rest);
-    let v = bin.floats(&positions, Some(ARRAY_BUFFER));
-    let pos_acc = bin.accessor(v, FLOAT, positions.len() / 3, "VEC3", Some(bounds(&positions, 3)));
-    let joint_bytes: Vec<u8> = joints.iter().flat_map(|j| j.to_le_bytes()).collect();
-    let v = bin.view(&joint_bytes, Some(ARRAY_BUFFER));
-    let joint_acc = bin.accessor(v, UNSIGNED_SHORT, joints.len() / 4, "VEC4", None);
-    let v = bin.floats(&weights, Some(ARRAY_BUFFER));
-    let weight_acc = bin.accessor(v, FLOAT, weights.len() / 4, "VEC4", None);
-    let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
-    let v = bin.view(&index_bytes, Some(ELEMENT_ARRAY_BUFFER));
-    let index_acc = bin.accessor(v, UNSIGNED_SHORT, indices.len(), "SCALAR", None);
+    // The drummer's body and sticks, one primitive per material, skinned to the bones.
+    let materials: Vec<Value> = Material::ALL
+        .iter()
+        .map(|m| {
+            let (colour, metallic, roughness) = m.pbr();
+            json!({"name": m.name(), "doubleSided": true, "pbrMetallicRoughness": {
+                "baseColorFactor": colour, "metallicFactor": metallic, "roughnessFactor": roughness}})
+        })
+        .collect();
+    let body_primitives: Vec<Value> =
+        scene::body(rig, &rest).into_iter().map(|(m, shape)| primitive(&mut bin, &shape, m, true)).collect();
+    let kit_parts = baked.kit.map(|kit| scene::kit(kit, rig.bones[0].offset.z - 0.07)).unwrap_or_default();
+    let kit_meshes: Vec<Value> = kit_parts
+        .iter()
+        .map(|part| json!({"name": part.name, "primitives": [primitive(&mut bin, &part.shape, part.material, false)]}))
+        .collect();
 
     // The animation.
     let frames = baked.poses.len();
@@ -172,6 +179,26 @@ fn build(baked: &Baked) -> Vec<u8> {
         channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": bone, "path": "rotation"}}));
     }
 
+    // The hi-hat's top cymbal rides on the pedal: its node's translation follows the
+    // motion's openness.
+    let hihat_node = kit_parts.iter().position(|p| p.origin != Vector3::zeros());
+    if let (Some(k), Some(kit)) = (hihat_node, baked.kit) {
+        let part = &kit_parts[k];
+        let piece = kit.piece(&part.name).expect("the hi-hat part is named for its piece");
+        let travel = kit.pedals.map_or(0.0, |p| p.hihat_travel_m);
+        let normal = Vector3::from(piece.normal);
+        let lift: Vec<f32> = baked
+            .motion
+            .frames
+            .iter()
+            .flat_map(|f| y_up(part.origin + normal * (travel * clean(f.hihat_openness).clamp(0.0, 1.0))))
+            .collect();
+        let v = bin.floats(&lift, None);
+        let acc = bin.accessor(v, FLOAT, frames, "VEC3", None);
+        samplers.push(json!({"input": time_acc, "output": acc, "interpolation": "LINEAR"}));
+        channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": n + 2 + k, "path": "translation"}}));
+    }
+
     let mut nodes: Vec<Value> = rig
         .bones
         .iter()
@@ -187,16 +214,28 @@ fn build(baked: &Baked) -> Vec<u8> {
         })
         .collect();
     nodes.push(json!({"name": "drummer", "mesh": 0, "skin": 0}));
+    let mut roots = vec![0, n];
+    let mut meshes = vec![json!({"name": "drummer", "primitives": body_primitives})];
+    if !kit_parts.is_empty() {
+        roots.push(n + 1);
+        nodes.push(json!({"name": "kit", "children": (n + 2..n + 2 + kit_parts.len()).collect::<Vec<_>>()}));
+        for (part, mesh) in kit_parts.iter().zip(kit_meshes) {
+            let mut node = json!({"name": part.name, "mesh": meshes.len()});
+            if part.origin != Vector3::zeros() {
+                node["translation"] = json!(y_up(part.origin));
+            }
+            nodes.push(node);
+            meshes.push(mesh);
+        }
+    }
     let doc = json!({
         "asset": {"version": "2.0", "generator": "drumsim"},
         "scene": 0,
-        "scenes": [{"name": "drummer", "nodes": [0, n]}],
+        "scenes": [{"name": "drummer", "nodes": roots}],
         "nodes": nodes,
         "skins": [{"name": "rig", "joints": (0..n).collect::<Vec<_>>(), "inverseBindMatrices": ibm_acc, "skeleton": 0}],
-        "meshes": [{"name": "bones", "primitives": [{
-            "attributes": {"POSITION": pos_acc, "JOINTS_0": joint_acc, "WEIGHTS_0": weight_acc},
-            "indices": index_acc,
-        }]}],
+        "materials": materials,
+        "meshes": meshes,
         "animations": [{"name": "drumming", "samplers": samplers, "channels": channels}],
         "buffers": [{"byteLength": bin.data.len()}],
         "bufferViews": bin.views,
@@ -205,36 +244,29 @@ fn build(baked: &Baked) -> Vec<u8> {
     glb(&doc.to_string(), bin.data)
 }
 
-/// One tetrahedron per bone from its joint to its tail, in the rest pose, Y-up: positions,
-/// joint indices and weights (4 per vertex), triangle indices.
-fn bone_shapes(rig: &Rig, rest: &[Vector3<f32>]) -> (Vec<f32>, Vec<u16>, Vec<f32>, Vec<u16>) {
-    let (mut pos, mut joints, mut weights, mut indices) = (vec![], vec![], vec![], vec![]);
-    for (i, bone) in rig.bones.iter().enumerate() {
-        let tail = if bone.tail.norm() > 1e-4 { bone.tail } else { Vector3::z() * 0.01 };
-        let len = tail.norm();
-        let axis = tail / len;
-        let helper = if axis.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
-        let e1 = axis.cross(&helper).normalize();
-        let e2 = axis.cross(&e1);
-        let r = (0.12 * len).clamp(0.003, 0.02);
-        let first = (pos.len() / 3) as u16;
-        let mut corners: Vec<Vector3<f32>> = (0..3)
-            .map(|k| {
-                let a = k as f32 * std::f32::consts::TAU / 3.0;
-                rest[i] + (e1 * a.cos() + e2 * a.sin()) * r
-            })
-            .collect();
-        corners.push(rest[i] + tail);
-        for c in corners {
-            pos.extend_from_slice(&y_up(c));
-            joints.extend_from_slice(&[i as u16, 0, 0, 0]);
-            weights.extend_from_slice(&[1.0, 0.0, 0.0, 0.0]);
-        }
-        for tri in [[0, 1, 3], [1, 2, 3], [2, 0, 3], [0, 2, 1]] {
-            indices.extend(tri.iter().map(|&k| first + k));
-        }
+/// A mesh primitive of `shape` (Y-up) with `material`; `skinned` adds its joints, each
+/// vertex weighted 1 to its bone.
+fn primitive(bin: &mut Bin, shape: &Shape, material: Material, skinned: bool) -> Value {
+    let positions: Vec<f32> = shape.positions.iter().flat_map(|p| y_up(*p)).collect();
+    let normals: Vec<f32> = shape.normals.iter().flat_map(|p| y_up(*p)).collect();
+    let v = bin.floats(&positions, Some(ARRAY_BUFFER));
+    let pos_acc = bin.accessor(v, FLOAT, positions.len() / 3, "VEC3", Some(bounds(&positions, 3)));
+    let v = bin.floats(&normals, Some(ARRAY_BUFFER));
+    let normal_acc = bin.accessor(v, FLOAT, normals.len() / 3, "VEC3", None);
+    let index_bytes: Vec<u8> = shape.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+    let v = bin.view(&index_bytes, Some(ELEMENT_ARRAY_BUFFER));
+    let index_acc = bin.accessor(v, UNSIGNED_INT, shape.indices.len(), "SCALAR", None);
+    let mut attributes = json!({"POSITION": pos_acc, "NORMAL": normal_acc});
+    if skinned {
+        let joint_bytes: Vec<u8> =
+            shape.joints.iter().flat_map(|&j| [j, 0, 0, 0]).flat_map(|j| j.to_le_bytes()).collect();
+        let v = bin.view(&joint_bytes, Some(ARRAY_BUFFER));
+        attributes["JOINTS_0"] = json!(bin.accessor(v, UNSIGNED_SHORT, shape.joints.len(), "VEC4", None));
+        let weights: Vec<f32> = shape.joints.iter().flat_map(|_| [1.0, 0.0, 0.0, 0.0]).collect();
+        let v = bin.floats(&weights, Some(ARRAY_BUFFER));
+        attributes["WEIGHTS_0"] = json!(bin.accessor(v, FLOAT, shape.joints.len(), "VEC4", None));
     }
-    (pos, joints, weights, indices)
+    json!({"attributes": attributes, "indices": index_acc, "material": Material::ALL.iter().position(|m| *m == material)})
 }
 
 /// The GLB container: 12-byte header, JSON chunk padded with spaces, BIN chunk padded with

@@ -13,10 +13,13 @@
 pub mod bvh;
 pub mod gltf;
 pub mod json;
+pub mod scene;
+pub mod shapes;
 
 use super::body_ik;
 use super::rig::{BodyPose, Rig};
 use super::track::Motion;
+use crate::kit::Kit;
 use crate::outputs::OutputSet;
 use nalgebra::{UnitQuaternion, Vector3};
 use std::io::Write;
@@ -40,11 +43,11 @@ pub struct Paths {
     pub glb: PathBuf,
 }
 
-/// Write `DIR/SONG.motion.json`, `DIR/SONG.bvh` and `DIR/SONG.glb`, solving the IK once,
-/// and publish the three together.
-pub fn write_all(motion: &Motion, rig: &Rig, dir: &Path, song: &str) -> Result<Paths, ExportError> {
+/// Write `DIR/SONG.motion.json`, `DIR/SONG.bvh` and `DIR/SONG.glb` (with `kit` in it, when
+/// given), solving the IK once, and publish the three together.
+pub fn write_all(motion: &Motion, rig: &Rig, kit: Option<&Kit>, dir: &Path, song: &str) -> Result<Paths, ExportError> {
     let mut set = OutputSet::new();
-    let paths = stage_all(motion, rig, dir, song, &mut set)?;
+    let paths = stage_all(motion, rig, kit, dir, song, &mut set)?;
     set.publish().map_err(|e| ExportError::Io { path: e.target, source: e.source })?;
     Ok(paths)
 }
@@ -54,11 +57,13 @@ pub fn write_all(motion: &Motion, rig: &Rig, dir: &Path, song: &str) -> Result<P
 pub fn stage_all(
     motion: &Motion,
     rig: &Rig,
+    kit: Option<&Kit>,
     dir: &Path,
     song: &str,
     set: &mut OutputSet,
 ) -> Result<Paths, ExportError> {
-    let baked = Baked::new(motion, rig)?;
+    let mut baked = Baked::new(motion, rig)?;
+    baked.kit = kit;
     let paths = Paths {
         json: dir.join(format!("{song}.motion.json")),
         bvh: dir.join(format!("{song}.bvh")),
@@ -97,6 +102,8 @@ pub struct Baked<'a> {
     pub motion: &'a Motion,
     pub rig: &'a Rig,
     pub poses: Vec<BodyPose>,
+    /// The kit to put in the glTF scene beside the drummer (none: the drummer alone).
+    pub kit: Option<&'a Kit>,
 }
 
 impl<'a> Baked<'a> {
@@ -115,7 +122,7 @@ impl<'a> Baked<'a> {
                 return bad(format!("frame {i}: {} face weights, expected {}", f.face.len(), super::ARKIT_NAMES.len()));
             }
         }
-        Ok(Baked { motion, rig, poses: body_ik::solve_motion(rig, motion) })
+        Ok(Baked { motion, rig, poses: body_ik::solve_motion(rig, motion), kit: None })
     }
 
     /// Time of frame `i`, s.

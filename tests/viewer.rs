@@ -1,0 +1,197 @@
+//! `drumsim view` in a real browser: a Groove MIDI take rendered, the viewer started on it,
+//! headless Chromium (software WebGL, no network) driven over the DevTools protocol.
+//! Screenshots are asserted on pixels: the drummer and the kit are there, the sticks move,
+//! the struck piece lights up at a contact; the picture's time follows the audio's after a
+//! seek and after 10 s of play; the page logs no error.
+//!
+//! Chromium is needed: `scripts/setup-debian.sh` installs it. Without it the test says so
+//! and passes, unless DRUMSIM_REQUIRE_BROWSER=1 (CI sets it).
+
+mod browser;
+
+use browser::{chromium, Browser, Image};
+use serde_json::Value;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+const TAKE: &str = "data/gmd/drummer3/session1/7_rock_105_beat_4-4.mid";
+const W: u32 = 1280;
+const H: u32 = 720;
+
+fn drumsim() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_drumsim"))
+}
+
+/// A running `drumsim view`, stopped when dropped.
+struct Viewer {
+    child: Child,
+    url: String,
+}
+
+impl Drop for Viewer {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn start_viewer(render: &Path) -> Viewer {
+    let mut child = drumsim()
+        .arg("view")
+        .arg(render)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("start drumsim view");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let url =
+        line.split_whitespace().find(|w| w.starts_with("http://")).expect("the viewer prints its address").to_string();
+    Viewer { child, url }
+}
+
+fn render_take(dir: &Path) -> PathBuf {
+    let out = drumsim().args(["render", TAKE, "--out"]).arg(dir).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    dir.join("7_rock_105_beat_4-4")
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("viewer-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn xy(v: &Value) -> (f64, f64) {
+    (v["x"].as_f64().unwrap(), v["y"].as_f64().unwrap())
+}
+
+/// A box of half-size `r` CSS pixels around `p`, clipped to the image.
+fn around((x, y): (f64, f64), r: f64) -> (usize, usize, usize, usize) {
+    let clip = |v: f64, max: u32| v.clamp(0.0, max as f64) as usize;
+    (clip(x - r, W), clip(y - r, H), clip(x + r, W), clip(y + r, H))
+}
+
+/// Median over a box of red minus blue: how orange (lit) a drum head looks.
+fn warmth(img: &Image, b: (usize, usize, usize, usize)) -> f64 {
+    let mut v: Vec<i32> = Vec::new();
+    for y in b.1..b.3 {
+        for x in b.0..b.2 {
+            let p = img.at(x, y);
+            v.push(p[0] as i32 - p[2] as i32);
+        }
+    }
+    v.sort_unstable();
+    v[v.len() / 2] as f64
+}
+
+fn browser_or_skip() -> Option<PathBuf> {
+    let found = chromium();
+    if found.is_none() {
+        assert!(
+            std::env::var_os("DRUMSIM_REQUIRE_BROWSER").is_none(),
+            "DRUMSIM_REQUIRE_BROWSER is set but no chromium"
+        );
+        println!("no chromium on this machine (scripts/setup-debian.sh installs it): skipping the browser test");
+    }
+    found
+}
+
+#[test]
+fn the_viewer_shows_the_drummer_playing_in_step_with_the_sound() {
+    let Some(chrome) = browser_or_skip() else { return };
+    let dir = out_dir("take");
+    let render = render_take(&dir);
+    let viewer = start_viewer(&render);
+    let mut b = Browser::launch(&chrome, W, H);
+    eprintln!("viewer at {}", viewer.url);
+    b.navigate(&viewer.url);
+    assert!(b.wait_for("!!(window.drumsim && (drumsim.ready || drumsim.errors.length))", Duration::from_secs(90)));
+    assert_eq!(b.eval("drumsim.errors"), serde_json::json!([]), "the page failed to load");
+    let shots = dir.join("shots");
+    std::fs::create_dir_all(&shots).unwrap();
+
+    // The drummer and the kit: the picture changes where each is hidden.
+    b.eval("drumsim.seek(4.0)");
+    let full = b.screenshot(Some(&shots.join("audience.png")));
+    b.eval("drumsim.setVisible('drummer', false)");
+    let no_drummer = b.screenshot(None);
+    b.eval("drumsim.setVisible('drummer', true); drumsim.setVisible('kit', false)");
+    let no_kit = b.screenshot(None);
+    b.eval("drumsim.setVisible('kit', true)");
+    let whole = (0, 0, W as usize, H as usize);
+    let (drummer_px, kit_px) = (full.differing(&no_drummer, whole, 40), full.differing(&no_kit, whole, 40));
+    println!("pixels of the drummer {drummer_px}, of the kit {kit_px} (of {})", W * H);
+    assert!(drummer_px > 20_000, "the drummer's silhouette covers only {drummer_px} pixels");
+    assert!(kit_px > 30_000, "the kit covers only {kit_px} pixels");
+
+    // The sticks move: around both hands, the picture at two moments a quarter second apart
+    // differs.
+    let hands_at =
+        |b: &mut Browser| [xy(&b.eval("drumsim.project('left_hand')")), xy(&b.eval("drumsim.project('right_hand')"))];
+    b.eval("drumsim.seek(6.0)");
+    let (h1, s1) = (hands_at(&mut b), b.screenshot(None));
+    b.eval("drumsim.seek(6.25)");
+    let (h2, s2) = (hands_at(&mut b), b.screenshot(None));
+    let moved: usize = h1.iter().chain(&h2).map(|&p| s1.differing(&s2, around(p, 90.0), 40)).sum();
+    println!("pixels changed around the hands between 6.0 and 6.25 s: {moved}");
+    assert!(moved > 1_500, "the sticks and hands did not move: {moved} pixels changed");
+
+    // The struck piece lights up: from above, a drum head at a contact of its own (none on it
+    // in the 0.6 s before) against the same head 0.3 s earlier.
+    b.eval("drumsim.setView('top')");
+    let pick = b.eval(
+        "(() => { const heads = ['snare', 'tom1', 'tom2', 'floor_tom'];
+          const cs = drumsim.contacts.filter(c => heads.includes(c.piece) && c.time_s > 1);
+          for (const c of cs) {
+            if (!cs.some(o => o.piece === c.piece && o.time_s < c.time_s && o.time_s > c.time_s - 0.6)) return c;
+          }
+          return null; })()",
+    );
+    let (piece, t) = (pick["piece"].as_str().expect("a drum contact").to_string(), pick["time_s"].as_f64().unwrap());
+    b.eval(&format!("drumsim.seek({})", t + 0.01));
+    let lit_level = b.eval(&format!("drumsim.litLevel('{piece}')")).as_f64().unwrap();
+    let centre = xy(&b.eval(&format!("drumsim.project('{piece}')")));
+    let lit = b.screenshot(Some(&shots.join("lit.png")));
+    b.eval(&format!("drumsim.seek({})", t - 0.3));
+    let unlit = b.screenshot(Some(&shots.join("unlit.png")));
+    let (w_lit, w_unlit) = (warmth(&lit, around(centre, 14.0)), warmth(&unlit, around(centre, 14.0)));
+    println!("{piece} at {t:.3} s: light level {lit_level:.2}, red - blue {w_unlit} -> {w_lit}");
+    assert!(lit_level > 0.3, "{piece} is not lit at its contact");
+    assert!(w_lit > w_unlit + 40.0, "{piece} does not look lit: red - blue {w_unlit} -> {w_lit}");
+
+    // Picture and sound keep time: after a seek, and after 10 s of play.
+    b.eval("drumsim.setView('audience')");
+    let gap = |b: &mut Browser| b.eval("Math.abs(drumsim.animTime - drumsim.audioTime())").as_f64().unwrap();
+    b.eval("drumsim.seek(8.5)");
+    let after_seek = gap(&mut b);
+    b.eval("drumsim.resetFrameStats(); drumsim.play()");
+    std::thread::sleep(Duration::from_secs(10));
+    let playing = b.eval("({t: drumsim.audioTime(), gap: Math.abs(drumsim.animTime - drumsim.audioTime()), stats: drumsim.frameStats()})");
+    b.eval("drumsim.pause()");
+    let played = playing["t"].as_f64().unwrap() - 8.5;
+    // "Within one frame": of 1/60 s, or of the page's own frame time where software
+    // rendering draws slower than that.
+    let frame_s = (playing["stats"]["p95_ms"].as_f64().unwrap() / 1e3).max(1.0 / 60.0) + 0.002;
+    let gap_playing = playing["gap"].as_f64().unwrap();
+    println!(
+        "after a seek the picture is {:.1} ms from the sound; after {played:.2} s of play {:.1} ms (a frame: {:.1} ms); frame times {}",
+        after_seek * 1e3,
+        gap_playing * 1e3,
+        frame_s * 1e3,
+        playing["stats"]
+    );
+    assert!(after_seek <= 1.0 / 60.0, "after a seek the picture is {after_seek} s off the sound");
+    assert!(played > 9.0, "the audio played only {played} s in 10 s");
+    assert!(gap_playing <= frame_s, "after 10 s of play the picture is {gap_playing} s off the sound");
+
+    b.drain_events();
+    assert_eq!(b.eval("drumsim.errors"), serde_json::json!([]));
+    assert!(b.errors.is_empty(), "the page logged errors: {:#?}", b.errors);
+    drop(b);
+    drop(viewer);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
