@@ -53,7 +53,7 @@ fn start_viewer(render: &Path) -> Viewer {
 }
 
 fn render_take(dir: &Path) -> PathBuf {
-    let out = drumsim().args(["render", TAKE, "--out"]).arg(dir).output().unwrap();
+    let out = drumsim().args(["render", TAKE, "--sound", "direct", "--out"]).arg(dir).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     dir.join("7_rock_105_beat_4-4")
 }
@@ -192,6 +192,57 @@ fn the_viewer_shows_the_drummer_playing_in_step_with_the_sound() {
     assert_eq!(b.eval("drumsim.errors"), serde_json::json!([]));
     assert!(b.errors.is_empty(), "the page logged errors: {:#?}", b.errors);
     drop(b);
+    drop(viewer);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_missing_or_damaged_render_and_a_port_in_use_are_named_with_exit_2() {
+    let dir = out_dir("bad");
+    // Nothing rendered there.
+    let out = drumsim().arg("view").arg(dir.join("song")).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("song.contacts.json: missing"), "{err}");
+    // A render whose glb was cut short.
+    let render = render_take(&dir);
+    let glb = render.with_extension("glb");
+    let bytes = std::fs::read(&glb).unwrap();
+    std::fs::write(&glb, &bytes[..bytes.len() / 2]).unwrap();
+    let out = drumsim().arg("view").arg(&glb).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("7_rock_105_beat_4-4.glb: truncated"), "{err}");
+    std::fs::write(&glb, &bytes).unwrap();
+    // A port another program holds.
+    let held = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = held.local_addr().unwrap().port();
+    let out = drumsim().arg("view").arg(&render).args(["--port", &port.to_string()]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains(&format!("port {port} on 127.0.0.1")) && err.contains("--port"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_server_answers_ranges_of_the_wav_for_seeking() {
+    let dir = out_dir("ranges");
+    let render = render_take(&dir);
+    let viewer = start_viewer(&render);
+    let port: u16 = viewer.url.trim_end_matches('/').rsplit(':').next().unwrap().parse().unwrap();
+    let wav = std::fs::read(render.with_extension("wav")).unwrap();
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    use std::io::{Read, Write};
+    write!(s, "GET /song.wav HTTP/1.1\r\nRange: bytes=1000-1099\r\nConnection: close\r\n\r\n").unwrap();
+    let mut answer = Vec::new();
+    s.read_to_end(&mut answer).unwrap();
+    let text = String::from_utf8_lossy(&answer);
+    assert!(text.starts_with("HTTP/1.1 206"), "{text}");
+    assert_eq!(&answer[answer.len() - 100..], &wav[1000..1100]);
+    let page = browser::http_get(port, "/");
+    assert!(page.contains("importmap") && page.contains("/viewer.js"));
+    let three = browser::http_get(port, "/vendor/three/LICENSE");
+    assert!(three.contains("MIT"), "three.js is served with its licence");
     drop(viewer);
     std::fs::remove_dir_all(&dir).unwrap();
 }
