@@ -281,6 +281,7 @@ fn glb_world(doc: &serde_json::Value, bin: &[u8], k: usize, joints: usize) -> Ve
                 let q = floats(out, 4); // x, y, z, w
                 rotation[node] = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[3], q[0], q[1], q[2]));
             }
+            "weights" => {} // the face's blend shapes
             other => panic!("animated {other}"),
         }
     }
@@ -401,7 +402,15 @@ fn glb_has_the_skin_and_one_animation_and_validates() {
     println!("glb: worst joint position difference to the rig {:.4} mm", worst * 1e3);
     assert!(worst < 1e-4, "GLB joints off the rig by {worst} m");
     let anim = &doc["animations"][0];
-    assert_eq!(anim["channels"].as_array().unwrap().len(), 1 + 57);
+    // The root's translation, every bone's rotation, the face's blend shape weights.
+    assert_eq!(anim["channels"].as_array().unwrap().len(), 1 + 57 + 1);
+    let targets = doc["meshes"][0]["extras"]["targetNames"].as_array().unwrap();
+    assert_eq!(targets.len(), 3);
+    assert!(doc["meshes"][0]["primitives"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|p| p["targets"].as_array().unwrap().len() == 3));
     let input = anim["samplers"][0]["input"].as_u64().unwrap() as usize;
     let times = &doc["accessors"][input];
     assert_eq!(times["count"].as_u64().unwrap() as usize, motion.frames.len());

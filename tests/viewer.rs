@@ -190,6 +190,23 @@ fn the_viewer_shows_the_drummer_playing_in_step_with_the_sound() {
 
     b.drain_events();
     assert_eq!(b.eval("drumsim.errors"), serde_json::json!([]));
+
+    // As an OBS browser source: no background, floor or controls; the drummer and kit drawn
+    // over whatever lies behind.
+    b.navigate(&format!("{}?transparent=1&t=4", viewer.url));
+    assert!(b.wait_for("!!(window.drumsim && (drumsim.ready || drumsim.errors.length))", Duration::from_secs(90)));
+    b.call(
+        "Emulation.setDefaultBackgroundColorOverride",
+        serde_json::json!({"color": {"r": 0, "g": 0, "b": 0, "a": 0}}),
+    );
+    let clear = b.screenshot(Some(&shots.join("transparent.png")));
+    let opaque = clear.rgba.chunks(4).filter(|p| p[3] == 255).count();
+    let see_through = clear.rgba.chunks(4).filter(|p| p[3] == 0).count();
+    println!("transparent mode: {opaque} opaque pixels, {see_through} clear");
+    assert_eq!(clear.at(5, 5)[3], 0, "the corner is not transparent");
+    assert!(opaque > 50_000 && see_through > (W * H) as usize / 2, "{opaque} opaque, {see_through} clear");
+    assert_eq!(b.eval("getComputedStyle(document.getElementById('ui')).display"), "none");
+    b.drain_events();
     assert!(b.errors.is_empty(), "the page logged errors: {:#?}", b.errors);
     drop(b);
     drop(viewer);

@@ -239,7 +239,7 @@ api.setVisible = (name, on) => {
   return !!o;
 };
 api.render = () => renderer.render(scene, camera);
-api.three = { THREE, scene, renderer, camera };
+api.three = { THREE, scene, renderer, camera, controls };
 
 async function load() {
   const info = await fetch('/info.json').then((r) => r.json());

@@ -52,6 +52,13 @@ impl Bin {
         self.view(&bytes, target)
     }
 
+    /// An accessor of `count` zero VEC3s in `view` (a view of at least that many zeros,
+    /// shared by the primitives whose blend shapes do not move them).
+    fn zeros(&mut self, view: usize, count: usize) -> usize {
+        let zero = || json!([0.0, 0.0, 0.0]);
+        self.accessor(view, FLOAT, count, "VEC3", Some((zero(), zero())))
+    }
+
     fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
         let offset = self.data.len();
         self.data.extend_from_slice(bytes);
@@ -139,8 +146,32 @@ fn build(baked: &Baked) -> Vec<u8> {
                 "baseColorFactor": colour, "metallicFactor": metallic, "roughnessFactor": roughness}})
         })
         .collect();
-    let body_primitives: Vec<Value> =
-        scene::body(rig, &rest).into_iter().map(|(m, shape)| primitive(&mut bin, &shape, m, true)).collect();
+    // Every primitive of the body carries the face's blend shapes (glTF asks the same
+    // targets of all primitives of a mesh): zeros except on the face's.
+    let body = scene::body(rig, &rest);
+    let most = body.iter().map(|(_, s)| s.positions.len()).max().unwrap_or(0);
+    let zero_view = bin.floats(&vec![0.0; 3 * most], Some(ARRAY_BUFFER));
+    bin.views[zero_view]["byteStride"] = json!(12);
+    let mut body_primitives: Vec<Value> = body
+        .into_iter()
+        .map(|(m, shape)| {
+            let mut p = primitive(&mut bin, &shape, m, true);
+            let zeros = bin.zeros(zero_view, shape.positions.len());
+            p["targets"] = json!(vec![json!({"POSITION": zeros}); scene::FACE_TARGETS.len()]);
+            p
+        })
+        .collect();
+    let (face, deltas) = scene::face(rig, &rest);
+    let mut p = primitive(&mut bin, &face, Material::Eyes, true);
+    p["targets"] = json!(deltas
+        .iter()
+        .map(|d| {
+            let values: Vec<f32> = d.iter().flat_map(|v| y_up(*v)).collect();
+            let view = bin.floats(&values, Some(ARRAY_BUFFER));
+            json!({"POSITION": bin.accessor(view, FLOAT, d.len(), "VEC3", Some(bounds(&values, 3)))})
+        })
+        .collect::<Vec<_>>());
+    body_primitives.push(p);
     let kit_parts = baked.kit.map(|kit| scene::kit(kit, rig.bones[0].offset.z - 0.07)).unwrap_or_default();
     let kit_meshes: Vec<Value> = kit_parts
         .iter()
@@ -179,6 +210,18 @@ fn build(baked: &Baked) -> Vec<u8> {
         channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": bone, "path": "rotation"}}));
     }
 
+    // The face: its blend shapes' weights from the motion's ARKit weights.
+    let face_index: Vec<usize> = scene::FACE_TARGETS
+        .iter()
+        .map(|name| crate::motion::ARKIT_NAMES.iter().position(|a| a == name).expect("an ARKit name"))
+        .collect();
+    let weights: Vec<f32> =
+        baked.motion.frames.iter().flat_map(|f| face_index.iter().map(|&k| clean(f.face[k]).clamp(0.0, 1.0))).collect();
+    let v = bin.floats(&weights, None);
+    let acc = bin.accessor(v, FLOAT, weights.len(), "SCALAR", None);
+    samplers.push(json!({"input": time_acc, "output": acc, "interpolation": "LINEAR"}));
+    channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": n, "path": "weights"}}));
+
     // The hi-hat's top cymbal rides on the pedal: its node's translation follows the
     // motion's openness.
     let hihat_node = kit_parts.iter().position(|p| p.origin != Vector3::zeros());
@@ -215,7 +258,8 @@ fn build(baked: &Baked) -> Vec<u8> {
         .collect();
     nodes.push(json!({"name": "drummer", "mesh": 0, "skin": 0}));
     let mut roots = vec![0, n];
-    let mut meshes = vec![json!({"name": "drummer", "primitives": body_primitives})];
+    let mut meshes = vec![json!({"name": "drummer", "primitives": body_primitives,
+        "weights": vec![0.0; scene::FACE_TARGETS.len()], "extras": {"targetNames": scene::FACE_TARGETS}})];
     if !kit_parts.is_empty() {
         roots.push(n + 1);
         nodes.push(json!({"name": "kit", "children": (n + 2..n + 2 + kit_parts.len()).collect::<Vec<_>>()}));

@@ -115,7 +115,7 @@ pub fn body(rig: &Rig, rest: &[V3]) -> Vec<(Material, Shape)> {
                 let centre = a + bone.tail * 0.48 + V3::y() * 0.005;
                 put(Material::Skin, Shape::ellipsoid(centre, [0.075, 0.095, 0.118], j));
             }
-            "eye" => put(Material::Eyes, Shape::ellipsoid(a, [0.012, 0.012, 0.012], j)),
+            "eye" => {} // the face's
             "shoulder" => put(Material::Shirt, Shape::capsule(a, b, 0.055, 0.055, (1.0, 1.0), j)),
             "arm" => put(Material::Shirt, Shape::capsule(a, b, 0.05, 0.042, (1.0, 1.0), j)),
             "forearm" => put(Material::Skin, Shape::capsule(a, b, 0.04, 0.03, (1.0, 1.0), j)),
@@ -145,6 +145,35 @@ pub fn body(rig: &Rig, rest: &[V3]) -> Vec<(Material, Shape)> {
         put(Material::Stick, Shape::ellipsoid(tip - along.normalize() * 0.006, [0.0065, 0.009, 0.0065], h as u16));
     }
     parts
+}
+
+/// The face's blend shapes in the glTF, a subset of the motion's 52 ARKit weights.
+pub const FACE_TARGETS: [&str; 3] = ["eyeBlinkLeft", "eyeBlinkRight", "jawOpen"];
+
+/// The face: the eyes (bound to the eye bones) and the mouth (bound to the head), with one
+/// displacement per vertex for each of [`FACE_TARGETS`]: a blink closes an eye to a line,
+/// `jawOpen` opens the mouth.
+pub fn face(rig: &Rig, rest: &[V3]) -> (Shape, [Vec<V3>; 3]) {
+    let mut shape = Shape::default();
+    let mut targets: [Vec<V3>; 3] = Default::default();
+    let mut add = |s: Shape, centre: V3, target: usize, squash: f32| {
+        for p in &s.positions {
+            for (k, t) in targets.iter_mut().enumerate() {
+                t.push(if k == target { V3::new(0.0, 0.0, (p.z - centre.z) * squash) } else { V3::zeros() });
+            }
+        }
+        shape.add(s);
+    };
+    for (name, target) in [("left_eye", 0), ("right_eye", 1)] {
+        if let Some(i) = rig.index_of(name) {
+            add(Shape::ellipsoid(rest[i], [0.012, 0.012, 0.012], i as u16), rest[i], target, -0.85);
+        }
+    }
+    if let Some(head) = rig.index_of("head") {
+        let mouth = rest[head] + V3::new(0.0, 0.074, 0.045);
+        add(Shape::ellipsoid(mouth, [0.022, 0.012, 0.004], head as u16), mouth, 2, 3.0);
+    }
+    (shape, targets)
 }
 
 /// A 16-inch stick, m.
