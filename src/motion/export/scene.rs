@@ -353,9 +353,11 @@ mod tests {
         let (_, sticks) = parts.iter().find(|(m, _)| *m == Material::Stick).unwrap();
         let hands: Vec<u16> = HAND.iter().map(|&h| h as u16).collect();
         assert!(sticks.joints.iter().all(|j| hands.contains(j)));
-        // The tip lies where the motion puts it: 0.28 m along the grip frame's +y.
+        // The tip lies where the motion puts it, 0.28 m along the grip frame's +y (the bead
+        // reaching 3 mm past it).
         let far = sticks.positions.iter().map(|p| p.y).fold(f32::MIN, f32::max);
         let grip_y = rest[HAND[0]].y + rig.grip_local.y;
-        assert!((far - grip_y - STICK_TIP_LOCAL[1]).abs() < 0.002, "{far} {grip_y}");
+        let past = far - grip_y - STICK_TIP_LOCAL[1];
+        assert!((0.0..0.005).contains(&past), "the stick ends {past} m past the tip");
     }
 }
