@@ -270,15 +270,15 @@ fn older_set(dir: &Path, out: &Path) {
 #[test]
 fn a_render_whose_motion_export_hits_a_full_disk_publishes_nothing_and_exits_1() {
     let dir = fresh_dir("full-disk");
-    // The sizes of the demo's files decide where the limit falls: the contacts and the glb
-    // fit, the BVH (written next) does not.
+    // The sizes of the demo's files decide where the limit falls: the contacts fit, the glb
+    // (the first motion file, written next) does not.
     let probe = dir.join("probe");
     let o = drumsim(&["render", demo().to_str().unwrap(), "--sound", "direct", "--out", probe.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let size = |ext: &str| std::fs::metadata(probe.join(format!("demo.{ext}"))).unwrap().len();
-    let (contacts, glb, bvh) = (size("contacts.json"), size("glb"), size("bvh"));
-    assert!(contacts < glb && glb < bvh, "{contacts} {glb} {bvh}");
-    let limit_kib = (glb + bvh) / 2 / 1024;
+    let (contacts, glb) = (size("contacts.json"), size("glb"));
+    assert!(contacts < glb, "{contacts} {glb}");
+    let limit_kib = (contacts + glb) / 2 / 1024;
 
     let out = dir.join("out");
     older_set(&dir, &out);
@@ -296,7 +296,7 @@ fn a_render_whose_motion_export_hits_a_full_disk_publishes_nothing_and_exits_1()
     );
     let o = Command::new("bash").args(["-c", &script]).output().unwrap();
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains(&out.join("groove.bvh").display().to_string()), "{}", stderr(&o));
+    assert!(stderr(&o).contains(&out.join("groove.glb").display().to_string()), "{}", stderr(&o));
     assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
     assert_eq!(listing(&out), before, "the older set must stand whole, with no partial file");
 }
