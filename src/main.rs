@@ -339,9 +339,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let report = drumsim::render::render_file(&song, &opts)?;
             eprintln!("{report}");
-            match shown.filter(|_| view) {
-                Some(path) => Ok(drumsim::view::run(&path, port, false)?),
-                None => Ok(()),
+            match shown {
+                Some(path) if view => Ok(drumsim::view::run(&path, port, false)?),
+                Some(path) if !no_motion => {
+                    eprintln!("watch the drummer: drumsim view {}", path.display());
+                    Ok(())
+                }
+                _ => Ok(()),
             }
         }
         Command::Live { midi, audio, lookahead_ms, sound, kit, map, channel, duration_s } => {

@@ -74,7 +74,7 @@ controls.enableDamping = false;
 // glTF frame: Y up, the drummer on the stool at the origin facing +Z, the kit in front.
 const VIEWS = {
   audience: { position: [0.7, 1.95, 3.5], target: [0, 0.72, 0.25] },
-  seat: { position: [0.02, 1.5, -0.42], target: [0, 0.72, 0.75] },
+  seat: { position: [0.28, 1.9, -0.38], target: [0, 0.66, 0.62] },
   top: { position: [0, 3.4, 0.36], target: [0, 0.4, 0.35] },
 };
 let follow = params.get('follow') === '1';
