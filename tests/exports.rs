@@ -365,6 +365,12 @@ fn glb_carries_the_kit_and_the_sticks_and_validates() {
         let at = view["byteOffset"].as_u64().unwrap() as usize + frame * 12 + 4;
         f32::from_le_bytes(bin[at..at + 4].try_into().unwrap())
     };
+    let beater = names.iter().position(|n| *n == "kick beater").unwrap();
+    assert!(anim["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|c| c["target"]["node"] == beater && c["target"]["path"] == "rotation"));
     let travel = kit.pedals.unwrap().hihat_travel_m;
     assert!((y_at(45) - y_at(0) - travel).abs() < 1e-4, "open {} closed {}", y_at(45), y_at(0));
     khronos_validate(&paths.glb);

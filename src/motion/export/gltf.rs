@@ -9,12 +9,12 @@
 //! Axes are glTF's (Y-up, the drummer facing +Z), metres. Written by hand: a JSON chunk and
 //! a BIN chunk, every buffer view 4-byte aligned.
 
-use super::scene::{self, Material};
+use super::scene::{self, Material, Moves};
 use super::shapes::Shape;
 use super::{write_file, write_one, y_up, y_up_rot, Baked, ExportError};
 use crate::motion::rig::Rig;
 use crate::motion::track::Motion;
-use nalgebra::Vector3;
+use nalgebra::{UnitQuaternion, Vector3};
 use serde_json::{json, Value};
 use std::io::Write;
 use std::path::Path;
@@ -224,22 +224,38 @@ fn build(baked: &Baked) -> Vec<u8> {
 
     // The hi-hat's top cymbal rides on the pedal: its node's translation follows the
     // motion's openness.
-    let hihat_node = kit_parts.iter().position(|p| p.origin != Vector3::zeros());
-    if let (Some(k), Some(kit)) = (hihat_node, baked.kit) {
-        let part = &kit_parts[k];
-        let piece = kit.piece(&part.name).expect("the hi-hat part is named for its piece");
-        let travel = kit.pedals.map_or(0.0, |p| p.hihat_travel_m);
-        let normal = Vector3::from(piece.normal);
-        let lift: Vec<f32> = baked
-            .motion
-            .frames
-            .iter()
-            .flat_map(|f| y_up(part.origin + normal * (travel * clean(f.hihat_openness).clamp(0.0, 1.0))))
-            .collect();
-        let v = bin.floats(&lift, None);
-        let acc = bin.accessor(v, FLOAT, frames, "VEC3", None);
+    for (k, part) in kit_parts.iter().enumerate() {
+        let Some(kit) = baked.kit else { break };
+        let (path, values, width) = match part.moves {
+            Moves::Still => continue,
+            Moves::HihatTop => {
+                let piece = kit.piece(&part.name).expect("the hi-hat part is named for its piece");
+                let travel = kit.pedals.map_or(0.0, |p| p.hihat_travel_m);
+                let normal = Vector3::from(piece.normal);
+                let lift: Vec<f32> = baked
+                    .motion
+                    .frames
+                    .iter()
+                    .flat_map(|f| y_up(part.origin + normal * (travel * clean(f.hihat_openness).clamp(0.0, 1.0))))
+                    .collect();
+                ("translation", lift, "VEC3")
+            }
+            Moves::KickBeater => {
+                let rest = kit.pedals.map_or(0.0, |p| p.beater_rest_deg).to_radians();
+                let swing: Vec<f32> = beater_angles(baked.motion, rest)
+                    .into_iter()
+                    .flat_map(|a| {
+                        let [w, x, y, z] = y_up_rot(&UnitQuaternion::from_axis_angle(&Vector3::x_axis(), a - rest));
+                        [x, y, z, w]
+                    })
+                    .collect();
+                ("rotation", swing, "VEC4")
+            }
+        };
+        let v = bin.floats(&values, None);
+        let acc = bin.accessor(v, FLOAT, frames, width, None);
         samplers.push(json!({"input": time_acc, "output": acc, "interpolation": "LINEAR"}));
-        channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": n + 2 + k, "path": "translation"}}));
+        channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": n + 2 + k, "path": path}}));
     }
 
     let mut nodes: Vec<Value> = rig
@@ -286,6 +302,30 @@ fn build(baked: &Baked) -> Vec<u8> {
         "accessors": bin.accessors,
     });
     glb(&doc.to_string(), bin.data)
+}
+
+/// The kick beater's angle back from the head (radians) in every frame, from the right
+/// foot of the motion: at the head on a kick's frame (the foot back down after a press),
+/// drawn further back as the foot lifts before it, else at `rest`.
+fn beater_angles(motion: &Motion, rest: f32) -> Vec<f32> {
+    use crate::motion::feet::{FEET_HOME, PRESS_LIFT_M};
+    let lift: Vec<f32> =
+        motion.frames.iter().map(|f| ((f.feet[1].pos[2] - FEET_HOME[1][2]) / PRESS_LIFT_M).clamp(0.0, 1.0)).collect();
+    swing(&lift, rest)
+}
+
+/// The beater's angle for each frame's foot lift (0..1).
+fn swing(lift: &[f32], rest: f32) -> Vec<f32> {
+    (0..lift.len())
+        .map(|i| {
+            let hit = i > 0 && lift[i] < 1e-3 && lift[i - 1] > 1e-3;
+            if hit {
+                0.0
+            } else {
+                rest * (1.0 + 0.6 * lift[i])
+            }
+        })
+        .collect()
 }
 
 /// A mesh primitive of `shape` (Y-up) with `material`; `skinned` adds its joints, each
@@ -335,4 +375,15 @@ fn glb(json_text: &str, mut bin: Vec<u8>) -> Vec<u8> {
     out.extend_from_slice(b"BIN\0");
     out.extend_from_slice(&bin);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_beater_meets_the_head_on_the_frame_the_foot_comes_down() {
+        let lift = [0.0, 0.0, 0.5, 1.0, 0.5, 0.0, 0.0];
+        let a = super::swing(&lift, 0.7);
+        assert_eq!(a[5], 0.0, "{a:?}");
+        assert!(a[3] > a[2] && a[2] > a[0] && (a[0] - 0.7).abs() < 1e-6 && (a[6] - 0.7).abs() < 1e-6, "{a:?}");
+    }
 }

@@ -89,6 +89,18 @@ pub struct KitPart {
     /// The node's place (kit frame); the shape is relative to it.
     pub origin: V3,
     pub shape: Shape,
+    pub moves: Moves,
+}
+
+/// How a part moves in the animation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Moves {
+    Still,
+    /// The hi-hat's top cymbal: lifted along the piece's normal by the openness.
+    HihatTop,
+    /// The kick beater: swung about its axle (the node's origin, the kit's x axis) by the
+    /// right foot, striking the head on each kick.
+    KickBeater,
 }
 
 /// The body's parts in the rig's bind pose (`rest`: every bone's joint, bind-pose
@@ -215,7 +227,7 @@ pub fn kit(kit: &Kit, seat_height_m: f32) -> Vec<KitPart> {
     let mut parts = Vec::new();
     let mut moving = Vec::new();
     let mut part = |name: String, material: Material, shape: Shape| {
-        parts.push(KitPart { name, material, origin: V3::zeros(), shape });
+        parts.push(KitPart { name, material, origin: V3::zeros(), shape, moves: Moves::Still });
     };
     let hoop_of = |drum: &str| kit.piece(&format!("{drum}_rim")).map(|p| p.id.clone());
     for p in &kit.pieces {
@@ -269,6 +281,7 @@ pub fn kit(kit: &Kit, seat_height_m: f32) -> Vec<KitPart> {
                         material: Material::Bronze,
                         origin: c,
                         shape: Shape::lathe(Frame::along(V3::zeros(), n), &profile, 32, 0),
+                        moves: Moves::HihatTop,
                     });
                     let bottom = Shape::lathe(Frame::along(c - n * 0.006, n), &cymbal_profile(r, true), 32, 0);
                     part(format!("{} bottom", p.id), Material::Bronze, bottom);
@@ -289,10 +302,17 @@ pub fn kit(kit: &Kit, seat_height_m: f32) -> Vec<KitPart> {
         part("kick pedal".into(), Material::Chrome, board(heel, axle - V3::z() * 0.03, 0.05));
         let rest = pedals.beater_rest_deg.to_radians();
         let dir = V3::new(0.0, -rest.sin(), rest.cos());
-        let ball = axle + dir * pedals.beater_length_m;
-        let mut beater = Shape::rod(axle, ball, 0.004, 0);
+        // The beater at its rest angle, about the axle (its node's origin).
+        let ball = dir * pedals.beater_length_m;
+        let mut beater = Shape::rod(V3::zeros(), ball, 0.004, 0);
         beater.add(Shape::ellipsoid(ball, [0.035, 0.025, 0.035], 0));
-        part("kick beater".into(), Material::Felt, beater);
+        moving.push(KitPart {
+            name: "kick beater".into(),
+            material: Material::Felt,
+            origin: axle,
+            shape: beater,
+            moves: Moves::KickBeater,
+        });
         let hh = v(pedals.hihat_pedal_m);
         let toe = V3::new(hh.x, hh.y + 0.27, 0.08);
         part("hihat pedal".into(), Material::Chrome, board(V3::new(hh.x, hh.y, 0.03), toe, 0.045));
