@@ -263,3 +263,26 @@ fn the_server_answers_ranges_of_the_wav_for_seeking() {
     drop(viewer);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn render_with_view_renders_then_serves_the_render() {
+    let dir = out_dir("render-view");
+    let mut child = drumsim()
+        .args(["render", TAKE, "--sound", "direct", "--view", "--out"])
+        .arg(&dir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let viewer =
+        Viewer { url: line.split_whitespace().find(|w| w.starts_with("http://")).expect(&line).to_string(), child };
+    let port: u16 = viewer.url.trim_end_matches('/').rsplit(':').next().unwrap().parse().unwrap();
+    let info: Value = serde_json::from_str(&browser::http_get(port, "/info.json")).unwrap();
+    assert_eq!(info["song"], "7_rock_105_beat_4-4");
+    assert!(info["duration_s"].as_f64().unwrap() > 30.0 && info["contacts"].as_u64().unwrap() > 100, "{info}");
+    assert!(dir.join("7_rock_105_beat_4-4.glb").is_file());
+    drop(viewer);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
