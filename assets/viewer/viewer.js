@@ -8,7 +8,8 @@
 // ?sticking=1, ?autoplay=1, ?t=SECONDS (start there).
 //
 // window.drumsim is the page's state for tests and scripts: ready, errors, animTime,
-// seek(t), play(), pause(), frameStats(), project(name), setVisible(name, on), litLevel(id).
+// seek(t), play(), pause(), frameStats(), project(name), setVisible(name, on), litLevel(id),
+// and three: { THREE, scene, renderer, camera, controls } for scripts that go further.
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';

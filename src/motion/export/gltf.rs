@@ -2,10 +2,13 @@
 //!
 //! Layout: nodes 0..57 are the bones (node i = rig bone i, rest translation = the bone's
 //! offset, the hips' lifted so that the rest pose stands on the floor, rest rotation
-//! identity), node 57 carries a small skinned mesh (a tetrahedron
-//! along each bone, weighted 1 to it) so that any viewer shows the figure; skin 0 lists the
-//! 57 joints with their inverse bind matrices. Animation 0 has 60 fps LINEAR samplers: the
-//! translation of the root (hips) and the rotation of every bone, keyed on every frame.
+//! identity); node 57, "drummer", carries the skinned body, sticks and face (one primitive
+//! per material, every vertex weighted 1 to its bone, the face's three blend shapes on every
+//! primitive); skin 0 lists the 57 joints with their inverse bind matrices. With a kit,
+//! node 58 "kit" holds a node per part ([`scene::kit`]). Animation 0 has 60 fps LINEAR
+//! samplers: the translation of the root (hips), the rotation of every bone and the face's
+//! blend shape weights, keyed on every frame, and the moving kit parts (the hi-hat's top
+//! cymbal, the kick beater).
 //! Axes are glTF's (Y-up, the drummer facing +Z), metres. Written by hand: a JSON chunk and
 //! a BIN chunk, every buffer view 4-byte aligned.
 
@@ -224,8 +227,9 @@ fn build(baked: &Baked) -> Vec<u8> {
 
     // The hi-hat's top cymbal rides on the pedal: its node's translation follows the
     // motion's openness.
+    // (`kit_parts` is empty without a kit.)
     for (k, part) in kit_parts.iter().enumerate() {
-        let Some(kit) = baked.kit else { break };
+        let Some(kit) = baked.kit else { continue };
         let (path, values, width) = match part.moves {
             Moves::Still => continue,
             Moves::HihatTop => {
