@@ -13,6 +13,8 @@ packages+=(openttd-openmsx planetblupi-music-midi)
 packages+=(time)
 # The viewer (`drumsim view`) is tested in a real headless Chromium.
 packages+=(chromium)
+# The VMC test receives with python-osc (installed below into /opt/drumsim-python).
+packages+=(python3 python3-venv)
 command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"
@@ -32,6 +34,13 @@ if [ ! -d "$validator/node_modules/gltf-validator" ]; then
     echo "setup-debian: installing gltf-validator into $validator" >&2
     $sudo mkdir -p "$validator"
     $sudo npm install --prefix "$validator" --no-audit --no-fund --silent gltf-validator@2.0.0-dev.3.10
+fi
+python_env=/opt/drumsim-python
+if ! "$python_env/bin/python3" -c "import pythonosc" >/dev/null 2>&1; then
+    echo "setup-debian: installing python-osc into $python_env" >&2
+    $sudo rm -rf "$python_env"
+    $sudo /usr/bin/python3 -m venv "$python_env"
+    $sudo "$python_env/bin/pip" install --quiet --disable-pip-version-check python-osc==1.10.2
 fi
 if ! command -v cargo >/dev/null 2>&1; then
     [ -x "$HOME/.cargo/bin/cargo" ] || {

@@ -19,3 +19,4 @@ pub mod render;
 pub mod rng;
 pub mod sound;
 pub mod view;
+pub mod vmc;

@@ -29,6 +29,56 @@ enum SoundMode {
     Direct,
 }
 
+/// VMC protocol output (VSeeFace, Warudo, VNyan, EVMC4U, VRM4U, VMC4B).
+#[derive(clap::Args)]
+struct VmcArgs {
+    /// Send the drummer to a VMC protocol receiver at HOST[:PORT] (port 39539 when left
+    /// out): every bone under Unity's humanoid names, the 52 ARKit blendshapes, 60 frames a
+    /// second, OSC over UDP.
+    #[arg(long, value_name = "HOST[:PORT]")]
+    vmc: Option<String>,
+    /// How VMC frames go into datagrams: mtu (bundles of at most 1,472 bytes), frame (one
+    /// bundle per frame, about 8 KB), messages (no bundles).
+    #[arg(long, value_enum, default_value_t = VmcPacking::Mtu)]
+    vmc_packing: VmcPacking,
+    /// Send only rotations: no root, every bone position zero (for receivers that reset the
+    /// pose when bone positions arrive; in EVMC4U untick Bone Position Synchronize).
+    #[arg(long)]
+    vmc_rotations_only: bool,
+    /// What to send, comma-separated: torso, head, arms, fingers, legs, face, or all (leave
+    /// out head,face to keep your own face tracking).
+    #[arg(long, default_value = "all")]
+    vmc_parts: String,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum VmcPacking {
+    Mtu,
+    Frame,
+    Messages,
+}
+
+impl VmcArgs {
+    /// The options, when --vmc (or `default`) names a receiver; checked before any work.
+    fn options(&self, default: Option<&str>) -> Result<Option<drumsim::vmc::VmcOptions>, drumsim::vmc::VmcError> {
+        let Some(target) = self.vmc.as_deref().or(default) else {
+            return Ok(None);
+        };
+        let target = drumsim::vmc::parse_target(target)?;
+        let (groups, face) = drumsim::vmc::parse_parts(&self.vmc_parts)?;
+        use drumsim::vmc::packets::{Content, Packing};
+        Ok(Some(drumsim::vmc::VmcOptions {
+            target,
+            packing: match self.vmc_packing {
+                VmcPacking::Mtu => Packing::Mtu,
+                VmcPacking::Frame => Packing::Frame,
+                VmcPacking::Messages => Packing::Messages,
+            },
+            content: Content { groups, face, rotations_only: self.vmc_rotations_only },
+        }))
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a MIDI file to DIR/SONG.wav and DIR/SONG.contacts.json.
@@ -68,6 +118,18 @@ enum Command {
         /// The viewer's port on 127.0.0.1 with --view (default: a free one).
         #[arg(long, default_value_t = 0, requires = "view")]
         port: u16,
+        /// Then play the motion to a VMC receiver in real time (see `drumsim vmc`).
+        #[command(flatten)]
+        vmc: VmcArgs,
+    },
+    /// Play a render's drummer to a VMC protocol receiver (VSeeFace, Warudo, VNyan, Unity
+    /// with EVMC4U, Unreal with VRM4U, Blender with VMC4B) in real time, 60 frames a second.
+    Vmc {
+        /// The render: OUT/SONG, or any of its files.
+        render: PathBuf,
+        /// The receiver is --vmc HOST[:PORT] (default 127.0.0.1:39539).
+        #[command(flatten)]
+        vmc: VmcArgs,
     },
     /// Watch a render: serves a page on 127.0.0.1 (its address printed) that plays
     /// OUT/SONG.wav with the drummer and kit of OUT/SONG.glb, lighting each struck piece.
@@ -290,6 +352,7 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::check::RunNothing>()
             || e.is::<drumsim::body::anthropometry::BodyError>()
             || e.is::<drumsim::view::ViewError>()
+            || e.downcast_ref::<drumsim::vmc::VmcError>().is_some_and(|e| !e.is_io())
     });
     if bad_input {
         2
@@ -307,6 +370,12 @@ fn physical_not_built() -> anyhow::Error {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::View { render, port, open } => Ok(drumsim::view::run(&render, port, open)?),
+        Command::Vmc { render, vmc } => {
+            let opts = vmc.options(Some("127.0.0.1"))?.expect("a default target");
+            let report = drumsim::vmc::play_render(&render, &opts, true)?;
+            eprintln!("{report}");
+            Ok(())
+        }
         Command::Render {
             song,
             out,
@@ -320,7 +389,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             teacher,
             view,
             port,
+            vmc,
         } => {
+            if vmc.vmc.is_some() && (view || no_motion) {
+                return Err(drumsim::render::RenderInputError::Unsupported(
+                    "--vmc plays the render's motion: it goes with neither --view nor --no-motion".into(),
+                )
+                .into());
+            }
+            let vmc = vmc.options(None)?;
             let shown = song.file_stem().map(|stem| out.join(stem));
             let opts = drumsim::render::RenderOptions {
                 out_dir: out,
@@ -340,6 +417,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let report = drumsim::render::render_file(&song, &opts)?;
             eprintln!("{report}");
             match shown {
+                Some(path) if vmc.is_some() => {
+                    let report = drumsim::vmc::play_render(&path, vmc.as_ref().expect("checked"), true)?;
+                    eprintln!("{report}");
+                    Ok(())
+                }
                 Some(path) if view => Ok(drumsim::view::run(&path, port, false)?),
                 Some(path) if !no_motion => {
                     eprintln!("watch the drummer: drumsim view {}", path.display());
