@@ -13,5 +13,6 @@ pub mod plan;
 pub mod rig;
 pub mod track;
 pub mod upper;
+pub mod window;
 
 pub use track::{Motion, MotionFrame, Pose, ARKIT_NAMES, FPS, HAND_VALUES, STICK_TIP_LOCAL};

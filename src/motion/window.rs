@@ -1,0 +1,164 @@
+//! The motion stage on a sliding window, for live play: the notes of the last few seconds go
+//! through the same stage as a render (roll, hand model, strike planning, retrieval, feet),
+//! and the avatar is shown `lookahead` behind the newest note, so that every stroke is
+//! prepared before it lands (the hand model is bidirectional: a stick lifts before its note
+//! because it sees the note coming).
+//!
+//! Times are seconds on the session's clock (the live MIDI epoch). A plan covers the window
+//! `[now - lookahead - history, now]`; the avatar at wall time `now` shows the plan at
+//! `now - lookahead`. Each new plan is faded in over [`FADE_S`] from the one before, so that
+//! a replan never pops the pose.
+
+use super::hands::HandModel;
+use super::pipeline::{self, MotionError};
+use super::track::{Motion, MotionFrame, Pose, FPS};
+use super::upper::Library;
+use crate::kit::Kit;
+use crate::midi::{DrumEvent, DrumEventKind, NoteMap, Performance};
+use std::collections::VecDeque;
+
+/// How long a new plan takes to replace the one before, s.
+pub const FADE_S: f64 = 0.1;
+/// Context kept before the shown time, s: the hand model and retrieval see this much past.
+pub const HISTORY_S: f64 = 2.0;
+
+/// The sliding-window motion stage.
+pub struct WindowMotion {
+    kit: Kit,
+    map: NoteMap,
+    model: HandModel,
+    library: Library,
+    lookahead_s: f64,
+    /// Events in time order (session clock).
+    events: VecDeque<DrumEvent>,
+    /// The last hi-hat pedal position before the window (carried into it).
+    pedal_before: Option<u8>,
+}
+
+/// One plan: motion at 60 fps from `start_s` (session clock).
+#[derive(Debug, Clone)]
+pub struct WindowPlan {
+    pub start_s: f64,
+    pub motion: Motion,
+    /// The notes in the window the kit plays: (session time, piece id, velocity).
+    pub notes: Vec<(f64, String, u8)>,
+}
+
+impl WindowPlan {
+    /// The frame at session time `t` (linear between frames; the nearest end outside).
+    pub fn frame_at(&self, t: f64) -> MotionFrame {
+        let x = ((t - self.start_s) * self.motion.fps).max(0.0);
+        let last = self.motion.frames.len() - 1;
+        let i = (x.floor() as usize).min(last);
+        let j = (i + 1).min(last);
+        blend(&self.motion.frames[i], &self.motion.frames[j], (x - i as f64).clamp(0.0, 1.0) as f32)
+    }
+
+    /// Session time just past the last frame.
+    pub fn end_s(&self) -> f64 {
+        self.start_s + self.motion.frames.len() as f64 / self.motion.fps
+    }
+}
+
+fn lerp3(a: [f32; 3], b: [f32; 3], w: f32) -> [f32; 3] {
+    std::array::from_fn(|k| a[k] + (b[k] - a[k]) * w)
+}
+
+fn blend_pose(a: &Pose, b: &Pose, w: f32) -> Pose {
+    let rot = a.rotation().slerp(&b.rotation(), w);
+    Pose { pos: lerp3(a.pos, b.pos, w), rot: [rot.w, rot.i, rot.j, rot.k] }
+}
+
+/// `a` moved `w` (0..1) of the way to `b`.
+pub fn blend(a: &MotionFrame, b: &MotionFrame, w: f32) -> MotionFrame {
+    MotionFrame {
+        hands: [blend_pose(&a.hands[0], &b.hands[0], w), blend_pose(&a.hands[1], &b.hands[1], w)],
+        chest: blend_pose(&a.chest, &b.chest, w),
+        head: blend_pose(&a.head, &b.head, w),
+        feet: [blend_pose(&a.feet[0], &b.feet[0], w), blend_pose(&a.feet[1], &b.feet[1], w)],
+        face: a.face.iter().zip(&b.face).map(|(x, y)| x + (y - x) * w).collect(),
+        hihat_openness: a.hihat_openness + (b.hihat_openness - a.hihat_openness) * w,
+    }
+}
+
+impl WindowMotion {
+    pub fn new(kit: Kit, map: NoteMap, model: HandModel, library: Library, lookahead_s: f64) -> WindowMotion {
+        WindowMotion { kit, map, model, library, lookahead_s, events: VecDeque::new(), pedal_before: None }
+    }
+
+    pub fn lookahead_s(&self) -> f64 {
+        self.lookahead_s
+    }
+
+    /// A MIDI event as it arrives (its `time_s` on the session clock).
+    pub fn push(&mut self, event: DrumEvent) {
+        self.events.push_back(event);
+    }
+
+    /// Where the window of a plan made at `now_s` starts.
+    pub fn window_start(&self, now_s: f64) -> f64 {
+        (now_s - self.lookahead_s - HISTORY_S).max(0.0)
+    }
+
+    /// The motion of the window ending at `now_s`; none while the window holds no note.
+    pub fn plan(&mut self, now_s: f64) -> Result<Option<WindowPlan>, MotionError> {
+        let start = self.window_start(now_s);
+        while self.events.front().is_some_and(|e| e.time_s < start) {
+            if let Some(DrumEventKind::HiHatPedal { value }) = self.events.pop_front().map(|e| e.kind) {
+                self.pedal_before = Some(value);
+            }
+        }
+        let mut events: Vec<DrumEvent> = Vec::with_capacity(self.events.len() + 1);
+        if let Some(value) = self.pedal_before {
+            events.push(DrumEvent { time_s: 0.0, tick: 0, kind: DrumEventKind::HiHatPedal { value } });
+        }
+        events.extend(self.events.iter().map(|e| DrumEvent { time_s: (e.time_s - start).max(0.0), ..*e }));
+        let last_note = events
+            .iter()
+            .filter(|e| matches!(e.kind, DrumEventKind::NoteOn { .. }))
+            .map(|e| e.time_s)
+            .fold(None, |m: Option<f64>, t| Some(m.map_or(t, |m| m.max(t))));
+        let Some(last_note) = last_note else { return Ok(None) };
+        let length = now_s - start;
+        let perf = Performance {
+            path: "live".into(),
+            events,
+            duration_s: length,
+            // The roll ends a second after this: the window up to now.
+            notes_end_s: last_note.max(length - 1.0),
+            channel: self.map.channel,
+        };
+        let hands = pipeline::model_hands(&self.model, &perf, &self.map);
+        let planned = match pipeline::perform_planned(&perf, &self.map, &self.kit, &hands, &self.library) {
+            Ok(p) => p,
+            Err(MotionError::Empty(_)) => return Ok(None),
+            Err(e) => return Err(e),
+        };
+        let notes = perf
+            .events
+            .iter()
+            .filter_map(|e| match e.kind {
+                DrumEventKind::NoteOn { note, velocity } => {
+                    let piece = &self.map.entry(note)?.piece;
+                    self.kit.piece(piece).is_some().then(|| (start + e.time_s, piece.clone(), velocity))
+                }
+                _ => None,
+            })
+            .collect();
+        debug_assert_eq!(planned.motion.fps, FPS);
+        Ok(Some(WindowPlan { start_s: start, motion: planned.motion, notes }))
+    }
+}
+
+/// The frame shown at session time `t` from the newest plan, faded in from the one before over
+/// [`FADE_S`] after `since_s` (when the newest plan arrived).
+pub fn shown_frame(newest: &WindowPlan, before: Option<&WindowPlan>, since_s: f64, now_s: f64, t: f64) -> MotionFrame {
+    let new = newest.frame_at(t);
+    match before {
+        Some(old) if now_s - since_s < FADE_S && t >= old.start_s => {
+            let w = ((now_s - since_s) / FADE_S).clamp(0.0, 1.0) as f32;
+            blend(&old.frame_at(t), &new, w)
+        }
+        _ => new,
+    }
+}
