@@ -64,11 +64,10 @@ fn main() {
                 }
                 if i % 3 == 0 {
                     let t0 = Instant::now();
-                    if let Some(p) = live.plan(now).unwrap() {
-                        plan_ms.push(t0.elapsed().as_secs_f64() * 1e3);
-                        before = newest.replace(p);
-                        since = now;
-                    }
+                    let p = live.plan(now).unwrap();
+                    plan_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+                    before = newest.replace(p);
+                    since = now;
                 }
                 let Some(plan) = &newest else { continue };
                 let shown_t = now - lookahead;

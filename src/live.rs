@@ -48,6 +48,9 @@ pub struct LiveOptions {
     pub channel: Option<u8>,
     /// Stop after this many seconds (None: until Ctrl-C or end of input).
     pub duration_s: Option<f64>,
+    /// Show the drummer (the live page, VMC); its lookahead is the avatar's, the sound stays
+    /// immediate.
+    pub avatar: Option<crate::avatar::AvatarOptions>,
 }
 
 /// Bad `live` options or names (exit code 2).
@@ -111,12 +114,20 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
 
     let epoch = Instant::now();
     let counters = Arc::new(Counters::default());
+    let (avatar_tx, avatar) = match &opts.avatar {
+        Some(a) => {
+            let (tx, rx) = crossbeam_channel::bounded(MIDI_QUEUE);
+            let avatar = crate::avatar::start(&kit, &map, a, rx, epoch)?;
+            (Some(tx), Some(avatar))
+        }
+        None => (None, None),
+    };
     let (event_tx, event_rx) = crossbeam_channel::bounded(MIDI_QUEUE);
     let (packet_tx, mut packet_rx) = transport::channel(PACKET_QUEUE);
     let c = counters.clone();
     let interaction = thread::Builder::new()
         .name("drumsim-interaction".into())
-        .spawn(move || interact(director, &event_rx, packet_tx, &c))?;
+        .spawn(move || interact(director, &event_rx, packet_tx, avatar_tx, &c))?;
     let feed = EventFeed::new(kit, audio.sample_rate_hz as f32, PerformanceClock::Epoch(epoch), ring_tx)
         .with_stats(audio.stats.clone());
     let feeder = thread::Builder::new().name("drumsim-feed".into()).spawn(move || feed.run(&mut packet_rx))?;
@@ -130,13 +141,36 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
     input.connect(&port, sink)?;
     wait_for_first_callback(&audio.stats);
     eprintln!("{}", status(&port, channel, &opts.map, &audio, opts.lookahead_ms));
+    if let (Some(a), Some(options)) = (&avatar, &opts.avatar) {
+        announce(a, options);
+    }
 
     let result = supervise(&mut input, &audio, &counters, opts.duration_s);
     drop(input); // closes the MIDI port: the interaction thread ends, then the feed thread
     interaction.join().map_err(|_| anyhow::anyhow!("the interaction thread panicked"))?;
     feeder.join().map_err(|_| anyhow::anyhow!("the feed thread panicked"))?.context("message transport")?;
     eprintln!("drumsim live: stopped after {:.1} s: {}", epoch.elapsed().as_secs_f64(), counters.report(&audio.stats));
+    if let Some(a) = avatar {
+        let dropped = counters.avatar_dropped.load(Relaxed);
+        eprintln!("drumsim live: {}, {dropped} events the avatar had no room for", a.stop());
+    }
     result
+}
+
+/// Say where the drummer is shown (the page's address on stdout, for scripts).
+fn announce(avatar: &crate::avatar::Avatar, options: &crate::avatar::AvatarOptions) {
+    use std::io::Write;
+    let delay = options.lookahead_s * 1e3;
+    if let Some(url) = &avatar.url {
+        println!("drumsim live: watch the drummer: {url}  (each stroke lands {delay:.0} ms after its note)");
+        let _ = std::io::stdout().flush();
+        if options.open && !crate::view::open_browser(url) {
+            eprintln!("drumsim live: no browser could be launched; open {url} yourself");
+        }
+    }
+    if let Some(v) = &options.vmc {
+        eprintln!("drumsim live: sending the drummer to the VMC receiver at {}, 60 frames a second", v.target);
+    }
 }
 
 fn validate(opts: &LiveOptions) -> Result<Option<u8>, LiveInputError> {
@@ -175,6 +209,8 @@ struct Counters {
     messages: AtomicU64,
     /// Messages the transport refused (full).
     transport_dropped: AtomicU64,
+    /// Events the avatar's queue had no room for.
+    avatar_dropped: AtomicU64,
 }
 
 impl Counters {
@@ -196,11 +232,23 @@ impl Counters {
     }
 }
 
-/// The interaction thread: drum events -> messages -> OSC packets, until the input closes.
-fn interact(mut director: Director, events: &Receiver<LiveEvent>, mut packets: impl PacketSender, c: &Counters) {
+/// The interaction thread: drum events -> messages -> OSC packets, until the input closes;
+/// each event also goes to the avatar, when there is one (never waiting for it).
+fn interact(
+    mut director: Director,
+    events: &Receiver<LiveEvent>,
+    mut packets: impl PacketSender,
+    avatar: Option<crossbeam_channel::Sender<LiveEvent>>,
+    c: &Counters,
+) {
     let mut messages: Vec<Message> = Vec::with_capacity(16);
     let mut buf = Vec::with_capacity(256);
     for ev in events.iter() {
+        if let Some(a) = &avatar {
+            if a.try_send(ev).is_err() {
+                c.avatar_dropped.fetch_add(1, Relaxed);
+            }
+        }
         director.on_event(&ev.event, &mut messages);
         for msg in messages.drain(..) {
             if let Err(e) = encode(&msg, &mut buf) {
@@ -320,6 +368,7 @@ mod tests {
             map: "gm".into(),
             channel: None,
             duration_s: None,
+            avatar: None,
         }
     }
 

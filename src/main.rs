@@ -143,14 +143,19 @@ enum Command {
         #[arg(long)]
         open: bool,
     },
-    /// Play a live MIDI input (e-kit, keyboard) through the speakers.
+    /// Play a live MIDI input (e-kit, keyboard) through the speakers; with --view or --vmc,
+    /// a drummer plays it too, --lookahead-ms after each note.
     Live {
         #[arg(long)]
         midi: Option<String>,
         #[arg(long)]
         audio: Option<String>,
-        #[arg(long, default_value_t = 0.0)]
-        lookahead_ms: f32,
+        /// Without --view or --vmc: delay the sound by this much so that audio-block timing is
+        /// jitter-free (default 0). With them: how long after a note the drummer strikes it,
+        /// so that each stroke is prepared before it lands (default 250, 0-1000); the sound
+        /// stays immediate.
+        #[arg(long)]
+        lookahead_ms: Option<f32>,
         #[arg(long, value_enum, default_value_t = SoundMode::Direct)]
         sound: SoundMode,
         #[arg(long)]
@@ -162,6 +167,18 @@ enum Command {
         /// Stop after this many seconds.
         #[arg(long)]
         duration_s: Option<f64>,
+        /// Show the drummer on a page served on 127.0.0.1 (its address printed), fed over a
+        /// WebSocket at 60 frames a second.
+        #[arg(long)]
+        view: bool,
+        /// The page's port with --view (default: a free one).
+        #[arg(long, default_value_t = 0, requires = "view")]
+        port: u16,
+        /// Launch the desktop's browser on the page (with --view).
+        #[arg(long, requires = "view")]
+        open: bool,
+        #[command(flatten)]
+        vmc: VmcArgs,
     },
     /// List MIDI inputs and audio outputs.
     Devices,
@@ -430,18 +447,31 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 _ => Ok(()),
             }
         }
-        Command::Live { midi, audio, lookahead_ms, sound, kit, map, channel, duration_s } => {
+        Command::Live { midi, audio, lookahead_ms, sound, kit, map, channel, duration_s, view, port, open, vmc } => {
             if matches!(sound, SoundMode::Physical) {
                 return Err(physical_not_built());
             }
+            let vmc = vmc.options(None)?;
+            let shown = view || vmc.is_some();
+            let avatar_ms = lookahead_ms.unwrap_or(drumsim::avatar::DEFAULT_LOOKAHEAD_MS);
+            if shown && !(0.0..=1000.0).contains(&avatar_ms) {
+                return Err(drumsim::live::LiveInputError::Lookahead(avatar_ms).into());
+            }
+            let avatar = shown.then(|| drumsim::avatar::AvatarOptions {
+                lookahead_s: f64::from(avatar_ms) / 1000.0,
+                view_port: view.then_some(port),
+                open,
+                vmc,
+            });
             let opts = drumsim::live::LiveOptions {
                 midi_port: midi,
                 audio_device: audio,
-                lookahead_ms,
+                lookahead_ms: if shown { 0.0 } else { lookahead_ms.unwrap_or(0.0) },
                 kit,
                 map,
                 channel,
                 duration_s,
+                avatar,
             };
             drumsim::live::run(&opts)
         }

@@ -9,6 +9,11 @@
 //! ```
 #![cfg(feature = "jack")]
 
+#[allow(dead_code)]
+mod browser;
+#[allow(dead_code)]
+mod vmc_receiver;
+
 use jack::{AudioIn, Client, ClientOptions, Control, MidiOut, Port, PortFlags, ProcessHandler, ProcessScope, RawMidi};
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -135,6 +140,43 @@ impl Drumsim {
             assert!(start.elapsed() < timeout, "drumsim still running after {timeout:?}:\n{}", self.stderr());
             thread::sleep(Duration::from_millis(50));
         }
+    }
+}
+
+impl Drumsim {
+    /// `drumsim live` with the page: its stdout is read for the page's address.
+    fn live_with_page(server: &JackServer, args: &[&str]) -> (Drumsim, String) {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_drumsim"))
+            .arg("live")
+            .args(args)
+            .env("JACK_DEFAULT_SERVER", &server.name)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let (stderr, sink) = (child.stderr.take().unwrap(), lines.clone());
+        thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                eprintln!("  [drumsim] {line}");
+                sink.lock().unwrap().push(line);
+            }
+        });
+        let (tx, rx) = std::sync::mpsc::channel();
+        let stdout = child.stdout.take().unwrap();
+        thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if let Some(url) = line.split_whitespace().find(|w| w.starts_with("http://")) {
+                    let _ = tx.send(url.to_string());
+                }
+            }
+        });
+        let mut drumsim = Drumsim { child, lines };
+        let url = rx.recv_timeout(Duration::from_secs(30)).unwrap_or_else(|_| {
+            let _ = drumsim.child.kill();
+            panic!("drumsim live printed no page address:\n{}", drumsim.stderr())
+        });
+        (drumsim, url)
     }
 }
 
@@ -361,4 +403,157 @@ fn devices_lists_the_port_and_a_vanished_port_is_reported_and_reconnected() {
     drop(client);
     assert!(status.success(), "drumsim live failed ({status}):\n{}", drumsim.stderr());
     assert!(drumsim.stderr().contains(" 1 MIDI events"), "the note after reconnecting:\n{}", drumsim.stderr());
+}
+
+/// The avatar's lookahead in the test, s.
+const LOOKAHEAD_S: f64 = 0.25;
+
+#[test]
+fn the_live_avatar_strikes_each_note_lookahead_after_it_was_played() {
+    let _turn = one_at_a_time();
+    let Some(chrome) = browser::chromium() else {
+        assert!(std::env::var_os("DRUMSIM_REQUIRE_BROWSER").is_none(), "DRUMSIM_REQUIRE_BROWSER is set but no chromium");
+        println!("no chromium on this machine (scripts/setup-debian.sh installs it): skipping");
+        return;
+    };
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("live-avatar");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let server = JackServer::start();
+    // Hand notes on the snare, two toms and the hi-hat, a kick between some, 0.4 s apart.
+    let hands = [(38u8, 100u8), (48, 90), (38, 70), (45, 110), (42, 80), (38, 120)];
+    let mut schedule = Vec::new();
+    let mut played = Vec::new();
+    for i in 0..24u64 {
+        let t = RATE + i * RATE * 2 / 5;
+        let (note, velocity) = hands[i as usize % hands.len()];
+        schedule.push((t, [0x99, note, velocity]));
+        schedule.push((t + RATE / 20, [0x99, note, 0]));
+        played.push(note);
+        if i % 4 == 2 {
+            schedule.push((t + RATE / 5, [0x99, 36, 100]));
+            schedule.push((t + RATE / 5 + RATE / 20, [0x99, 36, 0]));
+            played.push(36);
+        }
+    }
+    schedule.sort_by_key(|(t, _)| *t);
+    let total = schedule.last().unwrap().0 + RATE;
+    let (client, armed, progress) = player("drumsim-avatar", schedule, 0);
+    let receiver = vmc_receiver::python_osc().map(|python| {
+        let out = dir.join("vmc.json");
+        let (child, port) = vmc_receiver::start_receiver(&python, &out);
+        (child, port, out)
+    });
+    let vmc_target = receiver.as_ref().map(|(_, port, _)| format!("127.0.0.1:{port}"));
+    let mut args = vec!["--midi", "drumsim-avatar:midi_out", "--audio", "jack", "--map", "gm", "--duration-s", "30"];
+    args.extend(["--view", "--lookahead-ms", "250"]);
+    if let Some(t) = &vmc_target {
+        args.extend(["--vmc", t.as_str()]);
+    }
+    let (mut drumsim, url) = Drumsim::live_with_page(&server, &args);
+    drumsim.wait_for("drumsim live: MIDI", Duration::from_secs(20));
+    let mut b = browser::Browser::launch(&chrome, 640, 360);
+    b.navigate(&url);
+    assert!(
+        b.wait_for("!!(window.drumsim && ((drumsim.ready && drumsim.live.received > 30) || drumsim.errors.length))", Duration::from_secs(90)),
+        "the live page did not start"
+    );
+    assert_eq!(b.eval("drumsim.errors"), serde_json::json!([]), "the live page failed");
+    armed.store(true, Ordering::Release);
+    let start = Instant::now();
+    while progress.load(Ordering::Acquire) < total {
+        assert!(start.elapsed() < Duration::from_secs(40), "JACK is not running the test client");
+        thread::sleep(Duration::from_millis(50));
+    }
+    let log = b.eval("drumsim.live.log");
+    let arrivals: Vec<f64> = b.eval("drumsim.live.arrivals").as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    b.drain_events();
+    assert_eq!(b.eval("drumsim.errors"), serde_json::json!([]), "the live page logged errors");
+    drop(b);
+    drop(client.deactivate().unwrap());
+    let _ = drumsim.child.kill();
+    let _ = drumsim.child.wait();
+
+    // 60 frames a second reach the page: over the last 10 s of arrivals.
+    let last = *arrivals.last().unwrap();
+    let in_window = arrivals.iter().filter(|&&a| a > last - 10_000.0).count();
+    println!("the page received {in_window} frames in 10 s");
+    assert!(in_window >= 590, "{in_window} frames in 10 s");
+
+    // Every note is struck once, LOOKAHEAD_S after it was played, within one frame, with a
+    // stick tip on the piece's surface (the kick by its beater).
+    let kit = drumsim::kit::Kit::builtin_default();
+    let frames = log.as_array().unwrap();
+    let mut strikes = Vec::new();
+    for f in frames {
+        for s in f["strikes"].as_array().unwrap() {
+            strikes.push((s["piece"].as_str().unwrap().to_string(), s["at"].as_f64().unwrap(), f["t"].as_f64().unwrap()));
+        }
+    }
+    assert_eq!(strikes.len(), played.len(), "strikes shown {strikes:?}");
+    let (mut worst_late, mut worst_tip, mut worst_offset) = (0.0f64, 0.0f64, 0.0f64);
+    for (piece, at, t) in &strikes {
+        let late = t - at - LOOKAHEAD_S;
+        assert!((-0.001..=1.0 / 60.0 + 0.003).contains(&late), "{piece} played at {at:.3} s struck at {t:.3} s");
+        worst_late = worst_late.max(late);
+        if piece == "kick" {
+            continue;
+        }
+        let p = kit.piece(piece).unwrap();
+        let (c, n) = (nalgebra::Vector3::from(p.position_m), nalgebra::Vector3::from(p.normal).normalize());
+        // The nearer tip's height over the surface in the frames around the strike: its
+        // lowest lies within a frame of the note's time.
+        let gap = |f: &serde_json::Value| {
+            f["tips"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|tip| {
+                    let v: Vec<f32> = tip.as_array().unwrap().iter().map(|x| x.as_f64().unwrap() as f32).collect();
+                    let d = nalgebra::Vector3::new(v[0], v[1], v[2]) - c;
+                    let along = d.dot(&n);
+                    let across = (d - n * along).norm();
+                    if across <= p.radius_m { along.abs() as f64 } else { f64::INFINITY }
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        let (tip_gap, lowest_s) = frames
+            .iter()
+            .filter(|f| (f["s"].as_f64().unwrap() - at).abs() <= 3.0 / 60.0)
+            .map(|f| (gap(f), f["s"].as_f64().unwrap()))
+            .fold((f64::INFINITY, 0.0), |a, b| if b.0 < a.0 { b } else { a });
+        // At 60 frames a second the frame nearest a 3 m/s stroke's contact can be 8 ms and
+        // 25 mm from it.
+        assert!(
+            (lowest_s - at).abs() <= 1.0 / 60.0 + 1e-3 && tip_gap <= 0.025,
+            "{piece} at {at:.3} s: the tips come lowest ({:.1} mm over it) {:+.1} ms from the note",
+            tip_gap * 1e3,
+            (lowest_s - at) * 1e3
+        );
+        worst_offset = worst_offset.max((lowest_s - at).abs());
+        worst_tip = worst_tip.max(tip_gap);
+    }
+    println!(
+        "{} notes struck {:.0} ms after they were played, at most {:.1} ms later; the tips lowest within {:.1} ms of each note, {:.1} mm over the surface at most",
+        strikes.len(),
+        LOOKAHEAD_S * 1e3,
+        worst_late * 1e3,
+        worst_offset * 1e3,
+        worst_tip * 1e3
+    );
+
+    // The same session to a VMC receiver: 60 frames a second, every bone and blendshape.
+    if let Some((child, _, out)) = receiver {
+        let got = vmc_receiver::finish_receiver(child, &out);
+        let n = got.frames.len();
+        let span = got.frames[n - 1]["arrival_s"].as_f64().unwrap() - got.frames[0]["arrival_s"].as_f64().unwrap();
+        let rate = (n - 1) as f64 / span;
+        println!("VMC: {n} frames over {span:.1} s, {rate:.2} a second");
+        assert!(span > 10.0 && rate >= 59.0, "{n} VMC frames over {span:.1} s");
+        for f in &got.frames {
+            assert_eq!(f["bones"].as_object().unwrap().len(), 55);
+            assert_eq!(f["blend"].as_object().unwrap().len(), 52);
+            assert_eq!(f["ok"].as_i64(), Some(1));
+        }
+    }
 }

@@ -11,9 +11,11 @@
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde_json::Value;
-use std::io::{BufRead, BufReader, Read};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::path::PathBuf;
+use std::process::Command;
+use vmc_receiver::{finish_receiver, python_osc, start_receiver};
+
+mod vmc_receiver;
 
 const TAKE: &str = "data/gmd/drummer3/session1/39_jazz_120_beat_4-4.mid";
 
@@ -26,26 +28,6 @@ fn out_dir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-/// A Python with python-osc, or none (and the reason).
-fn python_osc() -> Option<String> {
-    let candidates = [
-        std::env::var("DRUMSIM_VMC_PYTHON").ok(),
-        Some("/opt/drumsim-python/bin/python3".to_string()),
-        Some("python3".to_string()),
-    ];
-    for p in candidates.into_iter().flatten() {
-        let ok = Command::new(&p).args(["-c", "import pythonosc"]).output().is_ok_and(|o| o.status.success());
-        if ok {
-            return Some(p);
-        }
-    }
-    if std::env::var("DRUMSIM_REQUIRE_PYTHON_OSC").as_deref() == Ok("1") {
-        panic!("no Python with python-osc (run scripts/setup-debian.sh), and DRUMSIM_REQUIRE_PYTHON_OSC=1");
-    }
-    eprintln!("skipped: no Python with python-osc; scripts/setup-debian.sh installs it");
-    None
 }
 
 /// Unity's humanoid hierarchy (HumanBodyBones), as a receiver knows it, and the drumsim bone
@@ -101,41 +83,6 @@ fn unity(v: Vector3<f64>) -> Vector3<f64> {
 /// A kit-frame rotation in Unity's (a reflection: w kept, vector part (-x, -z, -y)).
 fn unity_rot(q: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
     UnitQuaternion::from_quaternion(Quaternion::new(q.w, -q.i, -q.k, -q.j))
-}
-
-struct Received {
-    frames: Vec<Value>,
-    messages: u64,
-    unknown: Vec<Value>,
-}
-
-/// Start the receiver on a free port; returns it and the port.
-fn start_receiver(python: &str, out: &Path) -> (std::process::Child, u16) {
-    let mut child = Command::new(python)
-        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/vmc-receive.py"))
-        .args(["--port", "0", "--quiet-s", "1.5", "--max-s", "90", "--out"])
-        .arg(out)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("start the VMC receiver");
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
-    let port = line.trim().parse().unwrap_or_else(|_| panic!("the receiver printed {line:?}, not its port"));
-    (child, port)
-}
-
-fn finish_receiver(mut child: std::process::Child, out: &Path) -> Received {
-    let status = child.wait().unwrap();
-    assert!(status.success(), "the receiver failed");
-    let mut text = String::new();
-    std::fs::File::open(out).unwrap().read_to_string(&mut text).unwrap();
-    let v: Value = serde_json::from_str(&text).unwrap();
-    Received {
-        frames: v["frames"].as_array().unwrap().clone(),
-        messages: v["messages"].as_u64().unwrap(),
-        unknown: v["unknown"].as_array().unwrap().clone(),
-    }
 }
 
 #[test]

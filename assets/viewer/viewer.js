@@ -7,9 +7,15 @@
 // source), ?ui=0 / ?ui=1 (hide / show the controls), ?view=audience|seat|top, ?follow=1,
 // ?sticking=1, ?autoplay=1, ?t=SECONDS (start there).
 //
+// Live (`drumsim live --view`, info.json has "live": true): no sound or animation here; the
+// pose of every frame comes over the WebSocket /live at 60 frames a second (bones, face,
+// the hi-hat's top cymbal and the kick beater, the strikes shown in it), and the page
+// reconnects by itself when the stream goes.
+//
 // window.drumsim is the page's state for tests and scripts: ready, errors, animTime,
 // seek(t), play(), pause(), frameStats(), project(name), setVisible(name, on), litLevel(id),
-// and three: { THREE, scene, renderer, camera, controls } for scripts that go further.
+// live (live mode: received, connects, arrivals, log), and three: { THREE, scene, renderer,
+// camera, controls } for scripts that go further.
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
@@ -179,12 +185,18 @@ function frame(now) {
     if (frameTimes.length > 1200) frameTimes.shift();
   }
   lastFrame = now;
-  const t = audio.currentTime;
-  setTime(t);
+  const t = live ? liveClock() : audio.currentTime;
+  if (live) {
+    api.animTime = t;
+    updateLights(t);
+  } else setTime(t);
   if (follow) updateFollow(t);
   else controls.update();
-  if (!scrubbing && duration > 0) $('scrub').value = String(t / duration);
-  $('clock').textContent = `${clockText(t)} / ${clockText(duration)}`;
+  if (live) $('clock').textContent = live.socket && live.socket.readyState === 1 ? 'live' : 'connecting';
+  else {
+    if (!scrubbing && duration > 0) $('scrub').value = String(t / duration);
+    $('clock').textContent = `${clockText(t)} / ${clockText(duration)}`;
+  }
   if (now - fpsShownAt > 1000 && frameTimes.length > 10) {
     fpsShownAt = now;
     const s = api.frameStats();
@@ -242,14 +254,91 @@ api.setVisible = (name, on) => {
 api.render = () => renderer.render(scene, camera);
 api.three = { THREE, scene, renderer, camera, controls };
 
-async function load() {
-  const info = await fetch('/info.json').then((r) => r.json());
-  const contacts = await fetch('/contacts.json').then((r) => r.json());
-  $('title').textContent = `${info.song}  ·  ${info.sound} sound  ·  kit ${info.kit}`;
-  document.title = `drumsim · ${info.song}`;
+// Live mode: the newest frame's shown time, run on by the page's clock between frames.
+let live = null;
+function liveClock() {
+  if (!live.last) return 0;
+  return live.last.s + (performance.now() - live.lastArrival) / 1000;
+}
+
+function litPiece(id) {
+  let p = pieces.get(id);
+  if (p) return p;
+  const mesh = scene.getObjectByName(THREE.PropertyBinding.sanitizeNodeName(id));
+  if (!mesh || !mesh.isMesh) return null;
+  mesh.material = mesh.material.clone();
+  mesh.geometry.computeBoundingSphere();
+  const centre = mesh.geometry.boundingSphere.center.clone().applyMatrix4(mesh.matrixWorld);
+  p = { mesh, centre, base: mesh.material.color.clone(), times: [], limbs: [], levels: [], level: 0 };
+  pieces.set(id, p);
+  return p;
+}
+
+function applyLiveFrame(msg) {
+  const now = performance.now();
+  live.received += 1;
+  live.arrivals.push(now);
+  if (live.arrivals.length > 2400) live.arrivals.shift();
+  live.log.push({ arrival: now, t: msg.t, s: msg.s, tips: msg.tips, strikes: msg.strikes });
+  if (live.log.length > 2400) live.log.shift();
+  live.last = msg;
+  live.lastArrival = now;
+  msg.bones.forEach((q, i) => { if (live.bones[i]) live.bones[i].quaternion.set(q[0], q[1], q[2], q[3]); });
+  if (live.bones[0]) live.bones[0].position.set(msg.root[0], msg.root[1], msg.root[2]);
+  for (const m of live.morphs) msg.face.forEach((w, k) => { m.morphTargetInfluences[k] = w; });
+  for (const n of msg.nodes) {
+    if (!live.nodes.has(n.name)) live.nodes.set(n.name, scene.getObjectByName(THREE.PropertyBinding.sanitizeNodeName(n.name)));
+    const o = live.nodes.get(n.name);
+    if (!o) continue;
+    if (n.t) o.position.set(n.t[0], n.t[1], n.t[2]);
+    if (n.r) o.quaternion.set(n.r[0], n.r[1], n.r[2], n.r[3]);
+  }
+  for (const strike of msg.strikes) {
+    const p = litPiece(strike.piece);
+    if (!p) continue;
+    p.times.push(msg.s);
+    p.limbs.push(-1);
+    p.levels.push(Math.min(1, Math.max(0.35, strike.velocity / 110)));
+    if (p.times.length > 64) { p.times.shift(); p.limbs.shift(); p.levels.shift(); }
+  }
+}
+
+function connectLive() {
+  const socket = new WebSocket(`ws://${location.host}/live`);
+  live.socket = socket;
+  socket.onopen = () => { live.connects += 1; $('message').hidden = true; };
+  socket.onmessage = (e) => applyLiveFrame(JSON.parse(e.data));
+  // drumsim stopped or restarted: say so and try again every second.
+  socket.onclose = () => {
+    if (live.connects > 0) showMessage('drumsim live is not running; reconnecting…');
+    setTimeout(connectLive, 1000);
+  };
+}
+
+async function loadLive(info) {
+  $('title').textContent = `live  ·  kit ${info.kit}  ·  strokes land ${Math.round(info.lookahead_ms)} ms after their notes`;
+  document.title = 'drumsim · live';
+  for (const id of ['play', 'scrub', 'speed']) $(id).hidden = true;
   const gltf = await new GLTFLoader().loadAsync('/song.glb');
   scene.add(gltf.scene);
-  gltf.scene.traverse((o) => {
+  prepareMeshes(gltf.scene);
+  const byName = (n) => scene.getObjectByName(THREE.PropertyBinding.sanitizeNodeName(n));
+  live = { received: 0, connects: 0, arrivals: [], log: [], last: null, lastArrival: 0, socket: null,
+    bones: info.bones.map(byName), morphs: [], nodes: new Map() };
+  gltf.scene.traverse((o) => { if (o.isMesh && o.morphTargetInfluences && o.morphTargetInfluences.length) live.morphs.push(o); });
+  for (const id of info.pieces) litPiece(id);
+  api.info = info;
+  api.live = live;
+  setView(params.get('view') || 'audience');
+  api.setFollow(follow);
+  api.setSticking(false);
+  connectLive();
+  requestAnimationFrame(frame);
+  api.ready = true;
+}
+
+function prepareMeshes(root) {
+  root.traverse((o) => {
     if (!o.isMesh) return;
     o.frustumCulled = false;
     // Software rendering: Lambert shading instead of physically based, metals lightened as
@@ -261,6 +350,17 @@ async function load() {
       o.material = new THREE.MeshLambertMaterial({ color, side: m.side, name: m.name });
     }
   });
+}
+
+async function load() {
+  const info = await fetch('/info.json').then((r) => r.json());
+  if (info.live) return loadLive(info);
+  const contacts = await fetch('/contacts.json').then((r) => r.json());
+  $('title').textContent = `${info.song}  ·  ${info.sound} sound  ·  kit ${info.kit}`;
+  document.title = `drumsim · ${info.song}`;
+  const gltf = await new GLTFLoader().loadAsync('/song.glb');
+  scene.add(gltf.scene);
+  prepareMeshes(gltf.scene);
   if (gltf.animations.length) {
     mixer = new THREE.AnimationMixer(gltf.scene);
     const action = mixer.clipAction(gltf.animations[0]);
@@ -269,16 +369,8 @@ async function load() {
     action.play();
   }
   for (const c of contacts.contacts) {
-    let p = pieces.get(c.piece);
-    if (!p) {
-      const mesh = scene.getObjectByName(THREE.PropertyBinding.sanitizeNodeName(c.piece));
-      if (!mesh || !mesh.isMesh) continue;
-      mesh.material = mesh.material.clone();
-      mesh.geometry.computeBoundingSphere();
-      const centre = mesh.geometry.boundingSphere.center.clone().applyMatrix4(mesh.matrixWorld);
-      p = { mesh, centre, base: mesh.material.color.clone(), times: [], limbs: [], levels: [], level: 0 };
-      pieces.set(c.piece, p);
-    }
+    const p = litPiece(c.piece);
+    if (!p) continue;
     p.times.push(c.time_s);
     p.limbs.push(c.limb);
     p.levels.push(Math.min(1, Math.max(0.35, c.speed_mps / 6)));

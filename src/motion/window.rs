@@ -100,8 +100,9 @@ impl WindowMotion {
         (now_s - self.lookahead_s - HISTORY_S).max(0.0)
     }
 
-    /// The motion of the window ending at `now_s`; none while the window holds no note.
-    pub fn plan(&mut self, now_s: f64) -> Result<Option<WindowPlan>, MotionError> {
+    /// The motion of the window ending at `now_s` (a drummer waiting, while it holds no
+    /// note).
+    pub fn plan(&mut self, now_s: f64) -> Result<WindowPlan, MotionError> {
         let start = self.window_start(now_s);
         while self.events.front().is_some_and(|e| e.time_s < start) {
             if let Some(DrumEventKind::HiHatPedal { value }) = self.events.pop_front().map(|e| e.kind) {
@@ -109,16 +110,17 @@ impl WindowMotion {
             }
         }
         let mut events: Vec<DrumEvent> = Vec::with_capacity(self.events.len() + 1);
-        if let Some(value) = self.pedal_before {
-            events.push(DrumEvent { time_s: 0.0, tick: 0, kind: DrumEventKind::HiHatPedal { value } });
-        }
+        events.push(match self.pedal_before {
+            Some(value) => DrumEvent { time_s: 0.0, tick: 0, kind: DrumEventKind::HiHatPedal { value } },
+            // A window is never empty: a note-off, which nothing plays, stands for silence.
+            None => DrumEvent { time_s: 0.0, tick: 0, kind: DrumEventKind::NoteOff { note: 0 } },
+        });
         events.extend(self.events.iter().map(|e| DrumEvent { time_s: (e.time_s - start).max(0.0), ..*e }));
         let last_note = events
             .iter()
             .filter(|e| matches!(e.kind, DrumEventKind::NoteOn { .. }))
             .map(|e| e.time_s)
-            .fold(None, |m: Option<f64>, t| Some(m.map_or(t, |m| m.max(t))));
-        let Some(last_note) = last_note else { return Ok(None) };
+            .fold(0.0, f64::max);
         let length = now_s - start;
         let perf = Performance {
             path: "live".into(),
@@ -129,11 +131,7 @@ impl WindowMotion {
             channel: self.map.channel,
         };
         let hands = pipeline::model_hands(&self.model, &perf, &self.map);
-        let planned = match pipeline::perform_planned(&perf, &self.map, &self.kit, &hands, &self.library) {
-            Ok(p) => p,
-            Err(MotionError::Empty(_)) => return Ok(None),
-            Err(e) => return Err(e),
-        };
+        let planned = pipeline::perform_planned(&perf, &self.map, &self.kit, &hands, &self.library)?;
         let notes = perf
             .events
             .iter()
@@ -146,7 +144,7 @@ impl WindowMotion {
             })
             .collect();
         debug_assert_eq!(planned.motion.fps, FPS);
-        Ok(Some(WindowPlan { start_s: start, motion: planned.motion, notes }))
+        Ok(WindowPlan { start_s: start, motion: planned.motion, notes })
     }
 }
 

@@ -15,6 +15,8 @@ pub enum Body {
     Bytes(Arc<[u8]>),
     /// A file read at each request (the render's WAV and glb, which can be large).
     File(PathBuf),
+    /// A WebSocket that streams the live avatar's frames.
+    Live(Arc<super::live::LiveHub>),
 }
 
 /// One route: its path, content type and body.
@@ -65,6 +67,7 @@ fn handle(stream: TcpStream, routes: &[Route]) -> std::io::Result<()> {
         let (method, target) = (parts.next().unwrap_or(""), parts.next().unwrap_or("/"));
         let mut range = None;
         let mut close = false;
+        let mut websocket_key = None;
         loop {
             let mut header = String::new();
             if reader.read_line(&mut header)? == 0 {
@@ -78,6 +81,7 @@ fn handle(stream: TcpStream, routes: &[Route]) -> std::io::Result<()> {
                 match name.trim().to_ascii_lowercase().as_str() {
                     "range" => range = Some(value.trim().to_string()),
                     "connection" => close = value.trim().eq_ignore_ascii_case("close"),
+                    "sec-websocket-key" => websocket_key = Some(value.trim().to_string()),
                     _ => {}
                 }
             }
@@ -88,6 +92,22 @@ fn handle(stream: TcpStream, routes: &[Route]) -> std::io::Result<()> {
         } else {
             match routes.iter().find(|r| r.path == path) {
                 None => respond(&mut out, "404 Not Found", "text/plain", b"not found\n", method == "HEAD", &[])?,
+                Some(Route { body: Body::Live(hub), .. }) => {
+                    let Some(key) = websocket_key else {
+                        let text = b"a WebSocket: connect with new WebSocket(...)\n";
+                        return respond(&mut out, "426 Upgrade Required", "text/plain", text, method == "HEAD", &[]);
+                    };
+                    let accept = tungstenite::handshake::derive_accept_key(key.as_bytes());
+                    write!(
+                        out,
+                        "HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n\
+                         Sec-WebSocket-Accept: {accept}\r\n\r\n"
+                    )?;
+                    out.flush()?;
+                    out.set_read_timeout(None)?;
+                    hub.serve(out);
+                    return Ok(());
+                }
                 Some(route) => send(&mut out, route, range.as_deref(), method == "HEAD")?,
             }
         }
@@ -103,6 +123,7 @@ fn send(out: &mut TcpStream, route: &Route, range: Option<&str>, head: bool) -> 
     let len = match &route.body {
         Body::Bytes(b) => b.len() as u64,
         Body::File(p) => std::fs::metadata(p)?.len(),
+        Body::Live(_) => 0,
     };
     let (status, start, end) = match range.and_then(|r| parse_range(r, len)) {
         Some((a, b)) => ("206 Partial Content", a, b),
@@ -136,6 +157,7 @@ fn send(out: &mut TcpStream, route: &Route, range: Option<&str>, head: bool) -> 
             f.seek(SeekFrom::Start(start))?;
             std::io::copy(&mut f.take(end - start), out).map(|_| ())
         }
+        Body::Live(_) => Ok(()),
     }
 }
 

@@ -4,6 +4,7 @@
 //! three.js (vendored, MIT) are compiled into the binary, so it works with no network.
 
 pub mod http;
+pub mod live;
 
 use http::{Body, Route};
 use std::net::TcpListener;
@@ -161,6 +162,32 @@ pub fn routes(render: &RenderFiles) -> Vec<Route> {
         body: Body::File(render.contacts.clone()),
     });
     routes
+}
+
+/// The routes of the live page: the page, `info` (with `"live": true`), the drummer and kit
+/// as a glb, and the pose stream at `/live`.
+pub fn live_routes(info: &serde_json::Value, glb: Vec<u8>, hub: Arc<live::LiveHub>) -> Vec<Route> {
+    let mut routes = page_routes();
+    routes.push(Route {
+        path: "/info.json".into(),
+        content_type: "application/json",
+        body: Body::Bytes(Arc::from(info.to_string().into_bytes())),
+    });
+    routes.push(Route { path: "/song.glb".into(), content_type: "model/gltf-binary", body: Body::Bytes(Arc::from(glb)) });
+    routes.push(Route { path: "/live".into(), content_type: "text/plain", body: Body::Live(hub) });
+    routes
+}
+
+/// Serve the live page on 127.0.0.1:`port` (0: a free one) from a thread of its own; returns
+/// its address.
+pub fn start_live(routes: Vec<Route>, port: u16) -> Result<String, ViewError> {
+    let listener = bind(port)?;
+    let addr = listener.local_addr().map_err(|source| ViewError::Port { port, source })?;
+    std::thread::Builder::new()
+        .name("drumsim-view".into())
+        .spawn(move || http::serve(listener, routes))
+        .map_err(|source| ViewError::Port { port, source })?;
+    Ok(format!("http://{addr}/"))
 }
 
 /// Bind 127.0.0.1:`port` (0: a free port).

@@ -12,7 +12,8 @@
 //! Axes are glTF's (Y-up, the drummer facing +Z), metres. Written by hand: a JSON chunk and
 //! a BIN chunk, every buffer view 4-byte aligned.
 
-use super::scene::{self, Material, Moves};
+use super::scene::{self, KitPart, Material, Moves};
+use crate::kit::Kit;
 use super::shapes::Shape;
 use super::{write_file, write_one, y_up, y_up_rot, Baked, ExportError};
 use crate::motion::rig::Rig;
@@ -114,6 +115,11 @@ fn clean(v: f32) -> f32 {
     } else {
         0.0
     }
+}
+
+/// The binary glTF of `baked`, in memory (the live viewer serves one).
+pub fn bytes(baked: &Baked) -> Vec<u8> {
+    build(baked)
 }
 
 fn build(baked: &Baked) -> Vec<u8> {
@@ -228,38 +234,36 @@ fn build(baked: &Baked) -> Vec<u8> {
     // The hi-hat's top cymbal rides on the pedal: its node's translation follows the
     // motion's openness.
     // (`kit_parts` is empty without a kit.)
-    for (k, part) in kit_parts.iter().enumerate() {
-        let Some(kit) = baked.kit else { continue };
-        let (path, values, width) = match part.moves {
-            Moves::Still => continue,
-            Moves::HihatTop => {
-                let piece = kit.piece(&part.name).expect("the hi-hat part is named for its piece");
-                let travel = kit.pedals.map_or(0.0, |p| p.hihat_travel_m);
-                let normal = Vector3::from(piece.normal);
-                let lift: Vec<f32> = baked
-                    .motion
-                    .frames
-                    .iter()
-                    .flat_map(|f| y_up(part.origin + normal * (travel * clean(f.hihat_openness).clamp(0.0, 1.0))))
-                    .collect();
-                ("translation", lift, "VEC3")
+    if let Some(kit) = baked.kit {
+        let rest = kit.pedals.map_or(0.0, |p| p.beater_rest_deg).to_radians();
+        let angles = beater_angles(baked.motion, rest);
+        for (k, part) in kit_parts.iter().enumerate() {
+            if part.moves == Moves::Still {
+                continue;
             }
-            Moves::KickBeater => {
-                let rest = kit.pedals.map_or(0.0, |p| p.beater_rest_deg).to_radians();
-                let swing: Vec<f32> = beater_angles(baked.motion, rest)
-                    .into_iter()
-                    .flat_map(|a| {
-                        let [w, x, y, z] = y_up_rot(&UnitQuaternion::from_axis_angle(&Vector3::x_axis(), a - rest));
-                        [x, y, z, w]
-                    })
-                    .collect();
-                ("rotation", swing, "VEC4")
-            }
-        };
-        let v = bin.floats(&values, None);
-        let acc = bin.accessor(v, FLOAT, frames, width, None);
-        samplers.push(json!({"input": time_acc, "output": acc, "interpolation": "LINEAR"}));
-        channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": n + 2 + k, "path": path}}));
+            let moved: Vec<PartMotion> = baked
+                .motion
+                .frames
+                .iter()
+                .zip(&angles)
+                .filter_map(|(f, &a)| part_motion(part, kit, f.hihat_openness, a))
+                .collect();
+            let (path, width) = match moved.first() {
+                Some(PartMotion::Translation(_)) => ("translation", "VEC3"),
+                _ => ("rotation", "VEC4"),
+            };
+            let values: Vec<f32> = moved
+                .iter()
+                .flat_map(|m| match m {
+                    PartMotion::Translation(t) => t.to_vec(),
+                    PartMotion::Rotation(q) => q.to_vec(),
+                })
+                .collect();
+            let v = bin.floats(&values, None);
+            let acc = bin.accessor(v, FLOAT, frames, width, None);
+            samplers.push(json!({"input": time_acc, "output": acc, "interpolation": "LINEAR"}));
+            channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": n + 2 + k, "path": path}}));
+        }
     }
 
     let mut nodes: Vec<Value> = rig
@@ -308,27 +312,60 @@ fn build(baked: &Baked) -> Vec<u8> {
     glb(&doc.to_string(), bin.data)
 }
 
+/// How a moving kit part is placed in one frame (Y-up, relative to its parent, the kit).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PartMotion {
+    Translation([f32; 3]),
+    /// (x, y, z, w).
+    Rotation([f32; 4]),
+}
+
+/// Where a moving part is in a frame with this hi-hat openness (0..1) and kick beater angle
+/// (radians back from the head); none for a part that does not move.
+pub fn part_motion(part: &KitPart, kit: &Kit, openness: f32, beater_angle: f32) -> Option<PartMotion> {
+    match part.moves {
+        Moves::Still => None,
+        // The hi-hat's top cymbal rides on the pedal: lifted along the piece's normal.
+        Moves::HihatTop => {
+            let normal = kit.piece(&part.name).map_or(Vector3::z(), |p| Vector3::from(p.normal));
+            let travel = kit.pedals.map_or(0.0, |p| p.hihat_travel_m);
+            Some(PartMotion::Translation(y_up(part.origin + normal * (travel * clean(openness).clamp(0.0, 1.0)))))
+        }
+        Moves::KickBeater => {
+            let rest = kit.pedals.map_or(0.0, |p| p.beater_rest_deg).to_radians();
+            let [w, x, y, z] = y_up_rot(&UnitQuaternion::from_axis_angle(&Vector3::x_axis(), beater_angle - rest));
+            Some(PartMotion::Rotation([x, y, z, w]))
+        }
+    }
+}
+
+/// The right foot's lift off the kick pedal, 0 (down) .. 1 (a full press's lift).
+pub fn kick_foot_lift(frame: &crate::motion::MotionFrame) -> f32 {
+    use crate::motion::feet::{FEET_HOME, PRESS_LIFT_M};
+    ((frame.feet[1].pos[2] - FEET_HOME[1][2]) / PRESS_LIFT_M).clamp(0.0, 1.0)
+}
+
 /// The kick beater's angle back from the head (radians) in every frame, from the right
 /// foot of the motion: at the head on a kick's frame (the foot back down after a press),
 /// drawn further back as the foot lifts before it, else at `rest`.
 fn beater_angles(motion: &Motion, rest: f32) -> Vec<f32> {
-    use crate::motion::feet::{FEET_HOME, PRESS_LIFT_M};
-    let lift: Vec<f32> =
-        motion.frames.iter().map(|f| ((f.feet[1].pos[2] - FEET_HOME[1][2]) / PRESS_LIFT_M).clamp(0.0, 1.0)).collect();
+    let lift: Vec<f32> = motion.frames.iter().map(kick_foot_lift).collect();
     swing(&lift, rest)
+}
+
+/// The beater's angle in a frame from the foot's lift in it and in the frame before.
+pub fn beater_angle(lift: f32, lift_before: f32, rest: f32) -> f32 {
+    if lift < 1e-3 && lift_before > 1e-3 {
+        0.0
+    } else {
+        rest * (1.0 + 0.6 * lift)
+    }
 }
 
 /// The beater's angle for each frame's foot lift (0..1).
 fn swing(lift: &[f32], rest: f32) -> Vec<f32> {
     (0..lift.len())
-        .map(|i| {
-            let hit = i > 0 && lift[i] < 1e-3 && lift[i - 1] > 1e-3;
-            if hit {
-                0.0
-            } else {
-                rest * (1.0 + 0.6 * lift[i])
-            }
-        })
+        .map(|i| beater_angle(lift[i], if i > 0 { lift[i - 1] } else { 0.0 }, rest))
         .collect()
 }
 
