@@ -79,15 +79,21 @@ pub struct Avatar {
     first_error: Arc<Mutex<Option<String>>>,
 }
 
-/// Start the avatar: `events` are the player's events as they arrive (session clock from
-/// `epoch`).
-pub fn start(
-    kit: &Kit,
-    map: &NoteMap,
-    opts: &AvatarOptions,
-    events: Receiver<LiveEvent>,
-    epoch: Instant,
-) -> anyhow::Result<Avatar> {
+/// An avatar ready to start: the models loaded, the page serving, the socket open. Made
+/// before the sound starts, so that its loading never holds up the audio.
+pub struct Prepared {
+    window: WindowMotion,
+    waiting: WindowPlan,
+    rig: Rig,
+    kit: Kit,
+    lookahead_s: f64,
+    hub: Option<Arc<LiveHub>>,
+    url: Option<String>,
+    vmc: Option<(Humanoid, Encoder, Sender)>,
+}
+
+/// Load what the avatar needs and serve its page.
+pub fn prepare(kit: &Kit, map: &NoteMap, opts: &AvatarOptions) -> anyhow::Result<Prepared> {
     let library = pipeline::shipped_library()?;
     let model = match pipeline::override_weights() {
         Some(path) => HandModel::load(&path)?,
@@ -97,9 +103,6 @@ pub fn start(
     let rig = Rig::default();
     // The drummer waiting, for the page's glb and the first frames.
     let waiting = window.plan(0.0)?;
-    let stats = Arc::new(AvatarStats::default());
-    let stop = Arc::new(AtomicBool::new(false));
-    let first_error = Arc::new(Mutex::new(None));
     let hub = opts.view_port.map(|_| Arc::new(LiveHub::default()));
     let url = match (opts.view_port, &hub) {
         (Some(port), Some(hub)) => {
@@ -129,7 +132,16 @@ pub fn start(
         }
         None => None,
     };
+    Ok(Prepared { window, waiting, rig, kit: kit.clone(), lookahead_s: opts.lookahead_s, hub, url, vmc })
+}
 
+/// Start the avatar's threads: `events` are the player's events as they arrive (session
+/// clock from `epoch`).
+pub fn start(prepared: Prepared, events: Receiver<LiveEvent>, epoch: Instant) -> anyhow::Result<Avatar> {
+    let Prepared { mut window, waiting, rig, kit, lookahead_s, hub, url, vmc } = prepared;
+    let stats = Arc::new(AvatarStats::default());
+    let stop = Arc::new(AtomicBool::new(false));
+    let first_error = Arc::new(Mutex::new(None));
     let (plan_tx, plan_rx) = crossbeam_channel::bounded::<Arc<WindowPlan>>(4);
     let _ = plan_tx.try_send(Arc::new(waiting));
     let planner = {
@@ -169,7 +181,7 @@ pub fn start(
     };
     let poser = {
         let (stop, stats, hub) = (stop.clone(), stats.clone(), hub.clone());
-        let poser = Poser::new(kit, rig, opts.lookahead_s);
+        let poser = Poser::new(&kit, rig, lookahead_s);
         thread::Builder::new()
             .name("drumsim-avatar-pose".into())
             .spawn(move || poser.run(&plan_rx, epoch, &stop, &stats, hub.as_deref(), vmc))?
@@ -207,8 +219,12 @@ impl Avatar {
             );
         }
         if s.vmc_datagrams.load(Relaxed) + s.vmc_failed.load(Relaxed) > 0 {
-            let _ =
-                write!(text, "; vmc: {} datagrams, {} failed", s.vmc_datagrams.load(Relaxed), s.vmc_failed.load(Relaxed));
+            let _ = write!(
+                text,
+                "; vmc: {} datagrams, {} failed",
+                s.vmc_datagrams.load(Relaxed),
+                s.vmc_failed.load(Relaxed)
+            );
         }
         text
     }
@@ -226,7 +242,8 @@ struct Poser {
 
 impl Poser {
     fn new(kit: &Kit, rig: Rig, lookahead_s: f64) -> Poser {
-        let moving = scene::kit(kit, rig.bones[0].offset.z - 0.07).into_iter().filter(|p| p.moves != Moves::Still).collect();
+        let moving =
+            scene::kit(kit, rig.bones[0].offset.z - 0.07).into_iter().filter(|p| p.moves != Moves::Still).collect();
         let face_index = scene::FACE_TARGETS
             .iter()
             .map(|n| ARKIT_NAMES.iter().position(|a| a == n).expect("an ARKit name"))

@@ -10,6 +10,10 @@
 //!   -> rtrb ring of TimedEvent (fixed capacity)
 //! audio callback   place, Engine::process, out    (sound::output::Renderer)
 //! main             status, port watch, counters, --duration-s
+//!
+//! with --view / --vmc, the interaction thread also try_sends each event to the avatar:
+//! avatar planner   the motion stage on the newest notes, every 50 ms   (avatar, motion::window)
+//! avatar poser     60 Hz: pose at now - lookahead -> page WebSocket, VMC (avatar, view::live, vmc)
 //! ```
 //! A MIDI port that disappears (its JACK client closed, the USB cable pulled) does not stop
 //! the session: it is reported, and reconnected by name as soon as a port of that name is
@@ -107,6 +111,11 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
             "no default audio output (is JACK or a sound card there?); choose one with --audio, see `drumsim devices`"
         ),
     })?;
+    // The avatar loads before the sound starts, so that its loading never holds up the audio.
+    let prepared = match &opts.avatar {
+        Some(a) => Some(crate::avatar::prepare(&kit, &map, a)?),
+        None => None,
+    };
     let settings =
         OutputSettings { lookahead: Duration::from_secs_f32(opts.lookahead_ms / 1000.0), ..Default::default() };
     let (ring_tx, ring_rx) = rtrb::RingBuffer::new(SOUND_RING);
@@ -114,11 +123,10 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
 
     let epoch = Instant::now();
     let counters = Arc::new(Counters::default());
-    let (avatar_tx, avatar) = match &opts.avatar {
-        Some(a) => {
+    let (avatar_tx, avatar) = match prepared {
+        Some(p) => {
             let (tx, rx) = crossbeam_channel::bounded(MIDI_QUEUE);
-            let avatar = crate::avatar::start(&kit, &map, a, rx, epoch)?;
-            (Some(tx), Some(avatar))
+            (Some(tx), Some(crate::avatar::start(p, rx, epoch)?))
         }
         None => (None, None),
     };

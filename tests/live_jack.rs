@@ -412,7 +412,10 @@ const LOOKAHEAD_S: f64 = 0.25;
 fn the_live_avatar_strikes_each_note_lookahead_after_it_was_played() {
     let _turn = one_at_a_time();
     let Some(chrome) = browser::chromium() else {
-        assert!(std::env::var_os("DRUMSIM_REQUIRE_BROWSER").is_none(), "DRUMSIM_REQUIRE_BROWSER is set but no chromium");
+        assert!(
+            std::env::var_os("DRUMSIM_REQUIRE_BROWSER").is_none(),
+            "DRUMSIM_REQUIRE_BROWSER is set but no chromium"
+        );
         println!("no chromium on this machine (scripts/setup-debian.sh installs it): skipping");
         return;
     };
@@ -455,18 +458,37 @@ fn the_live_avatar_strikes_each_note_lookahead_after_it_was_played() {
     let mut b = browser::Browser::launch(&chrome, 640, 360);
     b.navigate(&url);
     assert!(
-        b.wait_for("!!(window.drumsim && ((drumsim.ready && drumsim.live.received > 30) || drumsim.errors.length))", Duration::from_secs(90)),
+        b.wait_for(
+            "!!(window.drumsim && ((drumsim.ready && drumsim.live.received > 30) || drumsim.errors.length))",
+            Duration::from_secs(90)
+        ),
         "the live page did not start"
     );
     assert_eq!(b.eval("drumsim.errors"), serde_json::json!([]), "the live page failed");
+    // A page that goes and comes back (a reload) is fed again.
+    b.navigate(&url);
+    assert!(
+        b.wait_for("!!(window.drumsim && drumsim.ready && drumsim.live.received > 30)", Duration::from_secs(90)),
+        "the reloaded page is not fed"
+    );
     armed.store(true, Ordering::Release);
+    // The drummer is on the page while it plays: the picture changes where it is hidden.
+    thread::sleep(Duration::from_secs(3));
+    let with = b.screenshot(Some(&dir.join("live.png")));
+    b.eval("drumsim.setVisible('drummer', false)");
+    let without = b.screenshot(None);
+    b.eval("drumsim.setVisible('drummer', true)");
+    let drummer_px = with.differing(&without, (0, 0, 640, 360), 40);
+    println!("the drummer covers {drummer_px} pixels of the live page");
+    assert!(drummer_px > 5_000, "the drummer covers only {drummer_px} pixels");
     let start = Instant::now();
     while progress.load(Ordering::Acquire) < total {
         assert!(start.elapsed() < Duration::from_secs(40), "JACK is not running the test client");
         thread::sleep(Duration::from_millis(50));
     }
     let log = b.eval("drumsim.live.log");
-    let arrivals: Vec<f64> = b.eval("drumsim.live.arrivals").as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    let arrivals: Vec<f64> =
+        b.eval("drumsim.live.arrivals").as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
     b.drain_events();
     assert_eq!(b.eval("drumsim.errors"), serde_json::json!([]), "the live page logged errors");
     drop(b);
@@ -487,7 +509,11 @@ fn the_live_avatar_strikes_each_note_lookahead_after_it_was_played() {
     let mut strikes = Vec::new();
     for f in frames {
         for s in f["strikes"].as_array().unwrap() {
-            strikes.push((s["piece"].as_str().unwrap().to_string(), s["at"].as_f64().unwrap(), f["t"].as_f64().unwrap()));
+            strikes.push((
+                s["piece"].as_str().unwrap().to_string(),
+                s["at"].as_f64().unwrap(),
+                f["t"].as_f64().unwrap(),
+            ));
         }
     }
     assert_eq!(strikes.len(), played.len(), "strikes shown {strikes:?}");
@@ -513,7 +539,11 @@ fn the_live_avatar_strikes_each_note_lookahead_after_it_was_played() {
                     let d = nalgebra::Vector3::new(v[0], v[1], v[2]) - c;
                     let along = d.dot(&n);
                     let across = (d - n * along).norm();
-                    if across <= p.radius_m { along.abs() as f64 } else { f64::INFINITY }
+                    if across <= p.radius_m {
+                        along.abs() as f64
+                    } else {
+                        f64::INFINITY
+                    }
                 })
                 .fold(f64::INFINITY, f64::min)
         };
@@ -522,10 +552,10 @@ fn the_live_avatar_strikes_each_note_lookahead_after_it_was_played() {
             .filter(|f| (f["s"].as_f64().unwrap() - at).abs() <= 3.0 / 60.0)
             .map(|f| (gap(f), f["s"].as_f64().unwrap()))
             .fold((f64::INFINITY, 0.0), |a, b| if b.0 < a.0 { b } else { a });
-        // At 60 frames a second the frame nearest a 3 m/s stroke's contact can be 8 ms and
-        // 25 mm from it.
+        // At 60 frames a second the frame nearest a stroke's contact can be 8 ms from it: 40
+        // mm over the surface for a 5 m/s stroke.
         assert!(
-            (lowest_s - at).abs() <= 1.0 / 60.0 + 1e-3 && tip_gap <= 0.025,
+            (lowest_s - at).abs() <= 1.0 / 60.0 + 1e-3 && tip_gap <= 0.04,
             "{piece} at {at:.3} s: the tips come lowest ({:.1} mm over it) {:+.1} ms from the note",
             tip_gap * 1e3,
             (lowest_s - at) * 1e3

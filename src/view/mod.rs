@@ -173,7 +173,11 @@ pub fn live_routes(info: &serde_json::Value, glb: Vec<u8>, hub: Arc<live::LiveHu
         content_type: "application/json",
         body: Body::Bytes(Arc::from(info.to_string().into_bytes())),
     });
-    routes.push(Route { path: "/song.glb".into(), content_type: "model/gltf-binary", body: Body::Bytes(Arc::from(glb)) });
+    routes.push(Route {
+        path: "/song.glb".into(),
+        content_type: "model/gltf-binary",
+        body: Body::Bytes(Arc::from(glb)),
+    });
     routes.push(Route { path: "/live".into(), content_type: "text/plain", body: Body::Live(hub) });
     routes
 }

@@ -59,4 +59,3 @@ pub fn finish_receiver(mut child: std::process::Child, out: &Path) -> Received {
         unknown: v["unknown"].as_array().unwrap().clone(),
     }
 }
-

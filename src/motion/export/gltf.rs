@@ -13,9 +13,9 @@
 //! a BIN chunk, every buffer view 4-byte aligned.
 
 use super::scene::{self, KitPart, Material, Moves};
-use crate::kit::Kit;
 use super::shapes::Shape;
 use super::{write_file, write_one, y_up, y_up_rot, Baked, ExportError};
+use crate::kit::Kit;
 use crate::motion::rig::Rig;
 use crate::motion::track::Motion;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -364,9 +364,7 @@ pub fn beater_angle(lift: f32, lift_before: f32, rest: f32) -> f32 {
 
 /// The beater's angle for each frame's foot lift (0..1).
 fn swing(lift: &[f32], rest: f32) -> Vec<f32> {
-    (0..lift.len())
-        .map(|i| beater_angle(lift[i], if i > 0 { lift[i - 1] } else { 0.0 }, rest))
-        .collect()
+    (0..lift.len()).map(|i| beater_angle(lift[i], if i > 0 { lift[i - 1] } else { 0.0 }, rest)).collect()
 }
 
 /// A mesh primitive of `shape` (Y-up) with `material`; `skinned` adds its joints, each
