@@ -11,8 +11,9 @@ packages+=(assimp-utils)
 packages+=(openttd-openmsx planetblupi-music-midi)
 # GNU time measures a render's peak memory in the tests.
 packages+=(time)
-# The viewer (`drumsim view`) is tested in a real headless Chromium.
-packages+=(chromium)
+# The viewer (`drumsim view`) is tested in a real headless Chromium; `drumsim video` draws
+# its frames there and encodes them with ffmpeg.
+packages+=(chromium ffmpeg)
 # The VMC test receives with python-osc (installed below into /opt/drumsim-python).
 packages+=(python3 python3-venv)
 command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)

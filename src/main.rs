@@ -122,6 +122,20 @@ enum Command {
         #[command(flatten)]
         vmc: VmcArgs,
     },
+    /// Write OUT/SONG.mp4: the viewer's scene drawn frame by frame in headless Chromium, with
+    /// the song's audio, encoded by ffmpeg (H.264 and AAC).
+    Video {
+        /// The render: OUT/SONG, or any of its files.
+        render: PathBuf,
+        /// WIDTHxHEIGHT in pixels (even numbers).
+        #[arg(long, default_value = "1280x720")]
+        size: String,
+        #[arg(long, default_value_t = 30)]
+        fps: u32,
+        /// The camera: audience, seat, top, or follow (the page's follow camera).
+        #[arg(long, default_value = "audience")]
+        view: String,
+    },
     /// Play a render's drummer to a VMC protocol receiver (VSeeFace, Warudo, VNyan, Unity
     /// with EVMC4U, Unreal with VRM4U, Blender with VMC4B) in real time, 60 frames a second.
     Vmc {
@@ -369,6 +383,7 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::check::RunNothing>()
             || e.is::<drumsim::body::anthropometry::BodyError>()
             || e.is::<drumsim::view::ViewError>()
+            || e.is::<drumsim::view::video::VideoInputError>()
             || e.downcast_ref::<drumsim::vmc::VmcError>().is_some_and(|e| !e.is_io())
     });
     if bad_input {
@@ -387,6 +402,13 @@ fn physical_not_built() -> anyhow::Error {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::View { render, port, open } => Ok(drumsim::view::run(&render, port, open)?),
+        Command::Video { render, size, fps, view } => {
+            let (width, height) = drumsim::view::video::parse_size(&size)?;
+            let opts = drumsim::view::video::VideoOptions { width, height, fps, view, progress: true };
+            let report = drumsim::view::video::make_video(&render, &opts)?;
+            eprintln!("{report}");
+            Ok(())
+        }
         Command::Vmc { render, vmc } => {
             let opts = vmc.options(Some("127.0.0.1"))?.expect("a default target");
             let report = drumsim::vmc::play_render(&render, &opts, true)?;

@@ -286,3 +286,126 @@ fn render_with_view_renders_then_serves_the_render() {
     drop(viewer);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// One frame of a video, by index, as RGB.
+fn video_frame(video: &Path, index: usize, w: usize, h: usize) -> Image {
+    let out = Command::new("ffmpeg")
+        .args(["-v", "error", "-i"])
+        .arg(video)
+        .args(["-vf", &format!("select=eq(n\\,{index})"), "-frames:v", "1", "-f", "rawvideo", "-pix_fmt", "rgba", "-"])
+        .output()
+        .expect("ffmpeg");
+    assert!(
+        out.status.success() && out.stdout.len() == w * h * 4,
+        "frame {index}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Image { width: w, height: h, rgba: out.stdout }
+}
+
+/// Pixels that are warmer (red minus blue up by more than 40) in `lit` than in `unlit`: a
+/// lit piece takes the flash's orange.
+fn warmer_pixels(lit: &Image, unlit: &Image) -> usize {
+    let warmth = |p: &[u8]| p[0] as i32 - p[2] as i32;
+    lit.rgba.chunks(4).zip(unlit.rgba.chunks(4)).filter(|(a, b)| warmth(a) - warmth(b) > 40).count()
+}
+
+#[test]
+fn drumsim_video_writes_the_song_as_h264_with_its_audio() {
+    let Some(_) = browser_or_skip() else { return };
+    let dir = out_dir("video");
+    let take = "data/gmd/drummer7/session1/2_rock_86_fill_4-4.mid";
+    let out = drumsim().args(["render", take, "--sound", "direct", "--out"]).arg(&dir).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let render = dir.join("2_rock_86_fill_4-4");
+    let (w, h, fps) = (640usize, 360usize, 30.0);
+    let out = drumsim().arg("video").arg(&render).args(["--size", "640x360", "--view", "top"]).output().unwrap();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{said}");
+    println!("{}", said.trim());
+    let video = render.with_extension("mp4");
+    assert!(video.is_file());
+
+    // ffprobe: an H.264 video of the song's length within one frame, and an audio stream.
+    let probe = Command::new("ffprobe")
+        .args([
+            "-v",
+            "error",
+            "-show_entries",
+            "stream=codec_type,codec_name,width,height,nb_frames,duration",
+            "-of",
+            "json",
+        ])
+        .arg(&video)
+        .output()
+        .expect("ffprobe");
+    let streams: Value = serde_json::from_slice(&probe.stdout).unwrap();
+    let streams = streams["streams"].as_array().unwrap();
+    let v = streams.iter().find(|s| s["codec_type"] == "video").expect("a video stream");
+    let a = streams.iter().find(|s| s["codec_type"] == "audio").expect("an audio stream");
+    assert_eq!(
+        (v["codec_name"].as_str(), v["width"].as_u64(), v["height"].as_u64()),
+        (Some("h264"), Some(640), Some(360))
+    );
+    assert_eq!(a["codec_name"].as_str(), Some("aac"));
+    let wav = hound::WavReader::open(render.with_extension("wav")).unwrap();
+    let song_s = wav.duration() as f64 / wav.spec().sample_rate as f64;
+    let video_s: f64 = v["duration"].as_str().unwrap().parse().unwrap();
+    let frames: usize = v["nb_frames"].as_str().unwrap().parse().unwrap();
+    println!("video {video_s:.3} s ({frames} frames), song {song_s:.3} s");
+    assert!((video_s - song_s).abs() <= 1.0 / fps + 1e-3, "video {video_s} s, song {song_s} s");
+
+    // A frame at a note's time shows the struck piece lit: a drum with no contact in the
+    // 0.6 s before, against the frame 0.3 s earlier.
+    let contacts: Value =
+        serde_json::from_str(&std::fs::read_to_string(render.with_extension("contacts.json")).unwrap()).unwrap();
+    let heads = ["snare", "tom1", "tom2", "floor_tom"];
+    let list = contacts["contacts"].as_array().unwrap();
+    let t = list
+        .iter()
+        .filter(|c| heads.contains(&c["piece"].as_str().unwrap()) && c["time_s"].as_f64().unwrap() > 1.0)
+        .map(|c| (c["piece"].as_str().unwrap(), c["time_s"].as_f64().unwrap()))
+        .find(|(p, t)| {
+            !list.iter().any(|o| {
+                let ot = o["time_s"].as_f64().unwrap();
+                o["piece"].as_str() == Some(p) && ot < *t && ot > t - 0.6
+            })
+        })
+        .expect("a drum contact")
+        .1;
+    let lit_index = (t * fps).ceil() as usize;
+    let lit = video_frame(&video, lit_index, w, h);
+    let unlit = video_frame(&video, lit_index - 9, w, h);
+    let warmer = warmer_pixels(&lit, &unlit);
+    println!("at {t:.3} s (frame {lit_index}) {warmer} pixels warmer than 0.3 s before");
+    let shots = dir.join("shots");
+    std::fs::create_dir_all(&shots).unwrap();
+    save_png(&shots.join("video-lit.png"), &lit);
+    save_png(&shots.join("video-unlit.png"), &unlit);
+    assert!(warmer > 1_000, "the struck drum is not lit in the video: {warmer} pixels warmer");
+}
+
+fn save_png(path: &Path, img: &Image) {
+    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut enc = png::Encoder::new(file, img.width as u32, img.height as u32);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header().unwrap().write_image_data(&img.rgba).unwrap();
+}
+
+#[test]
+fn video_without_chromium_or_ffmpeg_says_what_to_install() {
+    let dir = out_dir("video-missing");
+    let render = render_take(&dir);
+    let empty = dir.join("empty-path");
+    std::fs::create_dir_all(&empty).unwrap();
+    let out = drumsim().arg("video").arg(&render).env("PATH", &empty).env_remove("CHROMIUM").output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("Chromium is not installed") && err.contains("apt-get install chromium"), "{err}");
+    let out = drumsim().arg("video").arg(&render).args(["--size", "641x360"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--size \"641x360\""), "{err}");
+    assert!(!render.with_extension("mp4").exists());
+}

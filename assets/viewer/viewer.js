@@ -337,6 +337,55 @@ async function loadLive(info) {
   api.ready = true;
 }
 
+// Video mode (`drumsim video`, ?video=1&w=&h=&fps=&frames=): draw every frame of the song at
+// its time, read its pixels back and send them to drumsim over the WebSocket /frames, at
+// most AHEAD frames ahead of the ones drumsim has taken.
+const AHEAD = 2;
+async function recordVideo() {
+  const w = parseInt(params.get('w'), 10), h = parseInt(params.get('h'), 10);
+  const fps = parseFloat(params.get('fps'));
+  const frames = parseInt(params.get('frames'), 10);
+  renderer.setPixelRatio(1);
+  renderer.setSize(w, h, false);
+  camera.aspect = w / h;
+  camera.updateProjectionMatrix();
+  const ws = new WebSocket(`ws://${location.host}/frames`);
+  ws.binaryType = 'arraybuffer';
+  await new Promise((resolve, reject) => { ws.onopen = resolve; ws.onerror = () => reject(new Error('no /frames socket')); });
+  let taken = 0;
+  let wake = null;
+  ws.onmessage = () => { taken += 1; if (wake) { wake(); wake = null; } };
+  const gl = renderer.getContext();
+  const pixels = new Uint8Array(w * h * 4);
+  // Milliseconds spent drawing, reading back, sending, and waiting for drumsim.
+  const spent = { draw_ms: 0, read_ms: 0, send_ms: 0, wait_ms: 0 };
+  try {
+    for (let i = 0; i < frames; i++) {
+      let t0 = performance.now();
+      while (i - taken >= AHEAD) await new Promise((resolve) => { wake = resolve; });
+      let t1 = performance.now();
+      spent.wait_ms += t1 - t0;
+      const t = i / fps;
+      setTime(t);
+      if (follow) updateFollow(t);
+      renderer.render(scene, camera);
+      gl.finish();
+      t0 = performance.now();
+      spent.draw_ms += t0 - t1;
+      gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, pixels);
+      t1 = performance.now();
+      spent.read_ms += t1 - t0;
+      ws.send(pixels);
+      spent.send_ms += performance.now() - t1;
+    }
+    while (taken < frames) await new Promise((resolve) => { wake = resolve; });
+    for (const k of Object.keys(spent)) spent[k] /= frames;
+    ws.send(`done ${JSON.stringify(spent)}`);
+  } catch (e) {
+    ws.send(`error: ${e.message || e}`);
+  }
+}
+
 function prepareMeshes(root) {
   root.traverse((o) => {
     if (!o.isMesh) return;
@@ -393,6 +442,7 @@ async function load() {
   setView(params.get('view') || 'audience');
   api.setFollow(follow);
   api.setSticking(sticking);
+  if (params.get('video') === '1') return recordVideo();
   if (params.has('t')) await api.seek(parseFloat(params.get('t')) || 0);
   setTime(audio.currentTime);
   requestAnimationFrame(frame);

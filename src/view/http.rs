@@ -15,8 +15,14 @@ pub enum Body {
     Bytes(Arc<[u8]>),
     /// A file read at each request (the render's WAV and glb, which can be large).
     File(PathBuf),
-    /// A WebSocket that streams the live avatar's frames.
-    Live(Arc<super::live::LiveHub>),
+    /// A WebSocket, handed to its handler once the handshake is answered (the live avatar's
+    /// pose stream, the video recorder's frames).
+    Socket(Arc<dyn SocketHandler>),
+}
+
+/// What serves a WebSocket route: it takes the connection after the handshake.
+pub trait SocketHandler: Send + Sync + std::fmt::Debug {
+    fn serve(&self, stream: TcpStream);
 }
 
 /// One route: its path, content type and body.
@@ -92,7 +98,7 @@ fn handle(stream: TcpStream, routes: &[Route]) -> std::io::Result<()> {
         } else {
             match routes.iter().find(|r| r.path == path) {
                 None => respond(&mut out, "404 Not Found", "text/plain", b"not found\n", method == "HEAD", &[])?,
-                Some(Route { body: Body::Live(hub), .. }) => {
+                Some(Route { body: Body::Socket(handler), .. }) => {
                     let Some(key) = websocket_key else {
                         let text = b"a WebSocket: connect with new WebSocket(...)\n";
                         return respond(&mut out, "426 Upgrade Required", "text/plain", text, method == "HEAD", &[]);
@@ -105,7 +111,7 @@ fn handle(stream: TcpStream, routes: &[Route]) -> std::io::Result<()> {
                     )?;
                     out.flush()?;
                     out.set_read_timeout(None)?;
-                    hub.serve(out);
+                    handler.serve(out);
                     return Ok(());
                 }
                 Some(route) => send(&mut out, route, range.as_deref(), method == "HEAD")?,
@@ -123,7 +129,7 @@ fn send(out: &mut TcpStream, route: &Route, range: Option<&str>, head: bool) -> 
     let len = match &route.body {
         Body::Bytes(b) => b.len() as u64,
         Body::File(p) => std::fs::metadata(p)?.len(),
-        Body::Live(_) => 0,
+        Body::Socket(_) => 0,
     };
     let (status, start, end) = match range.and_then(|r| parse_range(r, len)) {
         Some((a, b)) => ("206 Partial Content", a, b),
@@ -157,7 +163,7 @@ fn send(out: &mut TcpStream, route: &Route, range: Option<&str>, head: bool) -> 
             f.seek(SeekFrom::Start(start))?;
             std::io::copy(&mut f.take(end - start), out).map(|_| ())
         }
-        Body::Live(_) => Ok(()),
+        Body::Socket(_) => Ok(()),
     }
 }
 

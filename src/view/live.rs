@@ -51,9 +51,11 @@ impl LiveHub {
         self.connections.fetch_add(1, Relaxed);
         rx
     }
+}
 
+impl super::http::SocketHandler for LiveHub {
     /// Stream frames to one page whose WebSocket handshake has been answered, until it goes.
-    pub fn serve(&self, stream: TcpStream) {
+    fn serve(&self, stream: TcpStream) {
         let frames = self.join();
         let _ = stream.set_nodelay(true);
         let mut ws = WebSocket::from_raw_socket(stream, Role::Server, None);

@@ -5,6 +5,7 @@
 
 pub mod http;
 pub mod live;
+pub mod video;
 
 use http::{Body, Route};
 use std::net::TcpListener;
@@ -178,7 +179,7 @@ pub fn live_routes(info: &serde_json::Value, glb: Vec<u8>, hub: Arc<live::LiveHu
         content_type: "model/gltf-binary",
         body: Body::Bytes(Arc::from(glb)),
     });
-    routes.push(Route { path: "/live".into(), content_type: "text/plain", body: Body::Live(hub) });
+    routes.push(Route { path: "/live".into(), content_type: "text/plain", body: Body::Socket(hub) });
     routes
 }
 
