@@ -73,6 +73,9 @@ pub fn chromium() -> Option<PathBuf> {
     ["chromium", "chromium-browser", "google-chrome"].iter().find_map(|n| on_path(n))
 }
 
+/// What the page's frames came to: how many drumsim took, or what went wrong.
+type PageOutcome = Result<u64, String>;
+
 /// Frames from the page into ffmpeg.
 #[derive(Debug)]
 struct FrameSink {
@@ -80,7 +83,7 @@ struct FrameSink {
     encoder: Mutex<Option<ChildStdin>>,
     progress: indicatif::ProgressBar,
     /// The page's outcome: frames taken, or what went wrong.
-    done: Sender<Result<u64, String>>,
+    done: Sender<PageOutcome>,
     /// The page's milliseconds a frame (JSON: draw, read back, send, wait).
     page_times: Mutex<String>,
 }
@@ -187,8 +190,7 @@ pub fn make_video(path: &Path, opts: &VideoOptions) -> anyhow::Result<VideoRepor
     } else {
         indicatif::ProgressBar::hidden()
     };
-    let (done_tx, done_rx): (Sender<Result<u64, String>>, Receiver<Result<u64, String>>) =
-        crossbeam_channel::bounded(1);
+    let (done_tx, done_rx): (Sender<PageOutcome>, Receiver<PageOutcome>) = crossbeam_channel::bounded(1);
     let sink = Arc::new(FrameSink {
         frame_bytes: (opts.width * opts.height * 4) as usize,
         encoder: Mutex::new(stdin),
