@@ -283,14 +283,15 @@ impl std::fmt::Display for RenderReport {
         if let Some(m) = &self.motion {
             writeln!(
                 f,
-                "motion: {} frames (hands from {}; {} notes no hand could play) in {:.2} s: {}, {}, {}",
+                "motion: {} frames (hands from {}; {} notes no hand could play) in {:.2} s: {}, {}, {}, {}",
                 m.frames,
                 m.hands_from,
                 m.dropped_notes,
                 m.seconds,
                 m.paths.json.display(),
                 m.paths.bvh.display(),
-                m.paths.glb.display()
+                m.paths.glb.display(),
+                m.paths.vrma.display()
             )?;
         }
         if let Some(p) = &self.physical {

@@ -374,6 +374,14 @@ fn glb_carries_the_kit_and_the_sticks_and_validates() {
     let travel = kit.pedals.unwrap().hihat_travel_m;
     assert!((y_at(45) - y_at(0) - travel).abs() < 1e-4, "open {} closed {}", y_at(45), y_at(0));
     khronos_validate(&paths.glb);
+    // The VRM Animation beside it: a valid glTF with the humanoid's 53 bones and the face.
+    let vrma = glb_json(&std::fs::read(&paths.vrma).unwrap());
+    let ext = &vrma["extensions"]["VRMC_vrm_animation"];
+    assert_eq!(ext["humanoid"]["humanBones"].as_object().unwrap().len(), 53);
+    assert!(
+        ext["expressions"]["preset"]["blinkLeft"].is_object() && ext["expressions"]["custom"]["jawOpen"].is_object()
+    );
+    khronos_validate(&paths.vrma);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

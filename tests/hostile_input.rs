@@ -283,7 +283,7 @@ fn a_render_whose_motion_export_hits_a_full_disk_publishes_nothing_and_exits_1()
     let out = dir.join("out");
     older_set(&dir, &out);
     let before = listing(&out);
-    assert_eq!(before.len(), 5, "{before:?}");
+    assert_eq!(before.len(), 6, "{before:?}");
     let song = dir.join("groove.mid");
     std::fs::copy(demo(), &song).unwrap();
     // A file-size limit is a full disk to the writer (EFBIG); SIGXFSZ is ignored, as a

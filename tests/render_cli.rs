@@ -56,8 +56,10 @@ fn renders_a_varied_handful_of_groove_midi_takes() {
         let result = render_cli(&song, &out, &["--map", "roland-td"]);
         assert!(result.status.success(), "{take}: {}", String::from_utf8_lossy(&result.stderr));
         let stem = song.file_stem().unwrap().to_string_lossy().into_owned();
-        let expected: Vec<String> =
-            ["bvh", "contacts.json", "glb", "motion.json", "wav"].iter().map(|e| format!("{stem}.{e}")).collect();
+        let expected: Vec<String> = ["bvh", "contacts.json", "glb", "motion.json", "vrma", "wav"]
+            .iter()
+            .map(|e| format!("{stem}.{e}"))
+            .collect();
         assert_eq!(files_in(&out), expected, "{take}");
         let (l, r, rate) = drumsim::sound::wav::read_stereo(&out.join(format!("{stem}.wav"))).unwrap();
         assert_eq!(rate, 48_000);

@@ -64,7 +64,7 @@ fn a_copied_binary_renders_the_demo_with_the_compiled_in_model() {
         .unwrap();
     assert!(r.status.success(), "{}", stderr(&r));
     assert!(stderr(&r).contains(&format!("hands from model {}", weights.display())), "{}", stderr(&r));
-    for file in ["demo.motion.json", "demo.bvh", "demo.glb", "demo.wav"] {
+    for file in ["demo.motion.json", "demo.bvh", "demo.glb", "demo.vrma", "demo.wav"] {
         let a = std::fs::read(alone.join("out").join(file)).unwrap();
         let b = std::fs::read(tree.join(file)).unwrap();
         assert!(a == b, "{file} differs between the copied binary and the source tree's weights");

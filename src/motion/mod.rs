@@ -7,6 +7,7 @@ pub mod corpus;
 pub mod export;
 pub mod feet;
 pub mod hands;
+pub mod humanoid;
 pub mod mocap;
 pub mod pipeline;
 pub mod plan;

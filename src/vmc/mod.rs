@@ -3,14 +3,13 @@
 //! own avatar. `render --vmc HOST:PORT` plays a render back in real time; `drumsim vmc
 //! OUT/SONG` plays one already rendered.
 //!
-//! `humanoid.rs` maps the rig to Unity's humanoid bones and T-pose, `packets.rs` encodes a
-//! frame, `sender.rs` paces the frames to the wall clock and sends them.
+//! `motion::humanoid` maps the rig to Unity's humanoid bones and T-pose, `packets.rs` encodes
+//! a frame, `sender.rs` paces the frames to the wall clock and sends them.
 
-pub mod humanoid;
 pub mod packets;
 pub mod sender;
 
-use humanoid::{Group, Humanoid};
+use crate::motion::humanoid::{Group, Humanoid};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use packets::{Content, Encoder, Packing};
 use sender::{Pacer, Sender};

@@ -3,10 +3,10 @@
 //! `/VMC/Ext/T` last.
 //!
 //! Every number is an OSC float; positions in metres and rotations as (x, y, z, w), in Unity's
-//! frame (see `humanoid`). The 52 blendshapes go by their ARKit names with the first letter
+//! frame (see `motion::humanoid`). The 52 blendshapes go by their ARKit names with the first letter
 //! capitalized, as VRM "perfect sync" models name their clips (`EyeBlinkLeft`, `JawOpen`).
 
-use super::humanoid::{Group, Humanoid, UnityPose};
+use crate::motion::humanoid::{Group, Humanoid, UnityPose};
 use rosc::{OscBundle, OscMessage, OscPacket, OscTime, OscType};
 
 pub const ROOT: &str = "/VMC/Ext/Root/Pos";

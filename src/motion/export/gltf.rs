@@ -23,7 +23,7 @@ use serde_json::{json, Value};
 use std::io::Write;
 use std::path::Path;
 
-const FLOAT: u32 = 5126;
+pub(super) const FLOAT: u32 = 5126;
 const UNSIGNED_SHORT: u32 = 5123;
 const UNSIGNED_INT: u32 = 5125;
 const ARRAY_BUFFER: u32 = 34962;
@@ -43,17 +43,23 @@ pub fn write_baked(baked: &Baked, path: &Path) -> Result<(), ExportError> {
 
 /// The binary buffer and the views and accessors into it.
 #[derive(Default)]
-struct Bin {
-    data: Vec<u8>,
-    views: Vec<Value>,
-    accessors: Vec<Value>,
+pub(super) struct Bin {
+    pub(super) data: Vec<u8>,
+    pub(super) views: Vec<Value>,
+    pub(super) accessors: Vec<Value>,
 }
 
 impl Bin {
     /// Append a buffer view of little-endian f32 values.
-    fn floats(&mut self, values: &[f32], target: Option<u32>) -> usize {
-        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-        self.view(&bytes, target)
+    pub(super) fn floats(&mut self, values: &[f32], target: Option<u32>) -> usize {
+        // Straight into the buffer (no copy of the bytes first: a long song's animation is
+        // hundreds of megabytes).
+        let offset = self.data.len();
+        self.data.reserve(values.len() * 4);
+        for v in values {
+            self.data.extend_from_slice(&v.to_le_bytes());
+        }
+        self.finish_view(offset, values.len() * 4, target)
     }
 
     /// An accessor of `count` zero VEC3s in `view` (a view of at least that many zeros,
@@ -66,10 +72,15 @@ impl Bin {
     fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
         let offset = self.data.len();
         self.data.extend_from_slice(bytes);
+        self.finish_view(offset, bytes.len(), target)
+    }
+
+    /// Pad the buffer to 4 bytes and add the view of the `len` bytes at `offset`.
+    fn finish_view(&mut self, offset: usize, len: usize, target: Option<u32>) -> usize {
         while !self.data.len().is_multiple_of(4) {
             self.data.push(0);
         }
-        let mut v = json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len()});
+        let mut v = json!({"buffer": 0, "byteOffset": offset, "byteLength": len});
         if let Some(t) = target {
             v["target"] = json!(t);
         }
@@ -77,7 +88,7 @@ impl Bin {
         self.views.len() - 1
     }
 
-    fn accessor(
+    pub(super) fn accessor(
         &mut self,
         view: usize,
         component: u32,
@@ -96,7 +107,7 @@ impl Bin {
 }
 
 /// Per-component minimum and maximum of `n`-vectors.
-fn bounds(values: &[f32], n: usize) -> (Value, Value) {
+pub(super) fn bounds(values: &[f32], n: usize) -> (Value, Value) {
     let mut lo = vec![f32::INFINITY; n];
     let mut hi = vec![f32::NEG_INFINITY; n];
     for chunk in values.chunks(n) {
@@ -109,7 +120,7 @@ fn bounds(values: &[f32], n: usize) -> (Value, Value) {
 }
 
 /// Replace non-finite values by 0 (glTF forbids them).
-fn clean(v: f32) -> f32 {
+pub(super) fn clean(v: f32) -> f32 {
     if v.is_finite() {
         v
     } else {
@@ -394,7 +405,7 @@ fn primitive(bin: &mut Bin, shape: &Shape, material: Material, skinned: bool) ->
 
 /// The GLB container: 12-byte header, JSON chunk padded with spaces, BIN chunk padded with
 /// zeros, both to 4 bytes.
-fn glb(json_text: &str, mut bin: Vec<u8>) -> Vec<u8> {
+pub(super) fn glb(json_text: &str, mut bin: Vec<u8>) -> Vec<u8> {
     let mut json_bytes = json_text.as_bytes().to_vec();
     while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');

@@ -1,6 +1,6 @@
 //! Motion out to files, through the rig and the whole-body IK: `SONG.motion.json` (the
 //! project's own format, kit frame), `SONG.bvh` and `SONG.glb` (Y-up, for animation tools
-//! and game engines).
+//! and game engines) and `SONG.vrma` (a VRM Animation, for any VRM 1.0 model).
 //!
 //! Every file is written under a partial name in the same folder and moved into place with
 //! the rest of its set ([`crate::outputs::OutputSet`]), so a failure never leaves a
@@ -15,6 +15,7 @@ pub mod gltf;
 pub mod json;
 pub mod scene;
 pub mod shapes;
+pub mod vrma;
 
 use super::body_ik;
 use super::rig::{BodyPose, Rig};
@@ -41,10 +42,11 @@ pub struct Paths {
     pub json: PathBuf,
     pub bvh: PathBuf,
     pub glb: PathBuf,
+    pub vrma: PathBuf,
 }
 
-/// Write `DIR/SONG.motion.json`, `DIR/SONG.bvh` and `DIR/SONG.glb` (with `kit` in it, when
-/// given), solving the IK once, and publish the three together.
+/// Write `DIR/SONG.motion.json`, `DIR/SONG.bvh`, `DIR/SONG.glb` (with `kit` in it, when
+/// given) and `DIR/SONG.vrma`, solving the IK once, and publish the four together.
 pub fn write_all(motion: &Motion, rig: &Rig, kit: Option<&Kit>, dir: &Path, song: &str) -> Result<Paths, ExportError> {
     let mut set = OutputSet::new();
     let paths = stage_all(motion, rig, kit, dir, song, &mut set)?;
@@ -52,7 +54,7 @@ pub fn write_all(motion: &Motion, rig: &Rig, kit: Option<&Kit>, dir: &Path, song
     Ok(paths)
 }
 
-/// Write the three files of [`write_all`] under partial names of `set`, for the caller to
+/// Write the four files of [`write_all`] under partial names of `set`, for the caller to
 /// publish with the rest of its outputs.
 pub fn stage_all(
     motion: &Motion,
@@ -68,10 +70,12 @@ pub fn stage_all(
         json: dir.join(format!("{song}.motion.json")),
         bvh: dir.join(format!("{song}.bvh")),
         glb: dir.join(format!("{song}.glb")),
+        vrma: dir.join(format!("{song}.vrma")),
     };
     gltf::write_baked(&baked, &set.stage(&paths.glb)).map_err(|e| e.for_target(&paths.glb))?;
     bvh::write_baked(&baked, &set.stage(&paths.bvh)).map_err(|e| e.for_target(&paths.bvh))?;
     json::write_baked(&baked, &set.stage(&paths.json)).map_err(|e| e.for_target(&paths.json))?;
+    vrma::write_baked(&baked, &set.stage(&paths.vrma)).map_err(|e| e.for_target(&paths.vrma))?;
     Ok(paths)
 }
 

@@ -58,6 +58,8 @@ pub struct UnityBone {
     /// Its joint in the T-pose, relative to its parent's, in Unity's frame (m); for Hips, its
     /// place above the floor.
     pub t_pose_local: [f32; 3],
+    /// The same in the kit frame (m).
+    pub t_pose_kit: Vector3<f32>,
     /// The turn from the T-pose to drumsim's rest (kit frame): 90 degrees about the forward
     /// axis for the arm chains, the identity elsewhere.
     turn: UnitQuaternion<f32>,
@@ -185,7 +187,16 @@ impl Humanoid {
             };
             let turn = chain_of(source).map_or_else(UnitQuaternion::identity, |side| turns[side]);
             let fold = (name == "Neck").then(|| names.iter().position(|n| n == "neck1")).flatten();
-            bones.push(UnityBone { name, source, parent, group, t_pose_local: unity_point(&local), turn, fold });
+            bones.push(UnityBone {
+                name,
+                source,
+                parent,
+                group,
+                t_pose_local: unity_point(&local),
+                t_pose_kit: local,
+                turn,
+                fold,
+            });
         }
         Ok(Humanoid { bones })
     }
@@ -204,7 +215,8 @@ impl Humanoid {
     }
 
     /// One frame: `hips` is the world position of drumsim's hips joint and `world(i)` the world
-    /// rotation of drumsim bone `i` (relative to the rest pose, kit frame). No allocation.
+    /// rotation of drumsim bone `i` (relative to the rest pose, kit frame). No allocation
+    /// once `scratch` has grown.
     pub fn pose_into(
         &self,
         hips: &Vector3<f32>,
@@ -212,20 +224,32 @@ impl Humanoid {
         scratch: &mut Vec<UnitQuaternion<f32>>,
         out: &mut UnityPose,
     ) {
-        scratch.clear();
         out.hips = unity_point(hips);
-        for (k, b) in self.bones.iter().enumerate() {
+        let n = self.bones.len();
+        self.local_into(world, scratch);
+        for k in 0..n {
+            out.local[k] = unity_rotation(&scratch[n + k]);
+        }
+    }
+
+    /// Each bone's local rotation from its T-pose, in the kit frame: `out[n + k]` for bone
+    /// `k` of `n` (the first `n` are their world rotations).
+    pub fn local_into(&self, world: impl Fn(usize) -> UnitQuaternion<f32>, out: &mut Vec<UnitQuaternion<f32>>) {
+        let n = self.bones.len();
+        out.clear();
+        for b in &self.bones {
             let own = world(b.source);
-            let w = match b.fold {
+            out.push(match b.fold {
                 Some(child) => own.slerp(&world(child), 0.5) * b.turn,
                 None => own * b.turn,
+            });
+        }
+        for k in 0..n {
+            let local = match self.bones[k].parent {
+                Some(p) => out[p].inverse() * out[k],
+                None => out[k],
             };
-            scratch.push(w);
-            let local = match b.parent {
-                Some(p) => scratch[p].inverse() * w,
-                None => w,
-            };
-            out.local[k] = unity_rotation(&local);
+            out.push(local);
         }
     }
 }
