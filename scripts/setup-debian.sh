@@ -36,6 +36,12 @@ if [ ! -d "$validator/node_modules/gltf-validator" ]; then
     $sudo mkdir -p "$validator"
     $sudo npm install --prefix "$validator" --no-audit --no-fund --silent gltf-validator@2.0.0-dev.3.10
 fi
+reader=/opt/vrma-reader
+if [ ! -d "$reader/node_modules/@pixiv/three-vrm-animation" ]; then
+    echo "setup-debian: installing three.js and @pixiv/three-vrm-animation into $reader (the VRMA test reads with them)" >&2
+    $sudo mkdir -p "$reader"
+    $sudo npm install --prefix "$reader" --no-audit --no-fund --silent three@0.187.0 @pixiv/three-vrm-animation@3.5.5
+fi
 python_env=/opt/drumsim-python
 if ! "$python_env/bin/python3" -c "import pythonosc" >/dev/null 2>&1; then
     echo "setup-debian: installing python-osc into $python_env" >&2

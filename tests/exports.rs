@@ -459,3 +459,35 @@ fn bad_motion_and_bad_folders_are_errors_that_write_nothing() {
     assert!(err.to_string().contains("no/such/folder"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// pixiv's VRM Animation loader (three-vrm, `scripts/vrma-read.mjs`) reads SONG.vrma of a
+/// rendered take: every humanoid bone drumsim drives, the hips' translation, the expressions,
+/// the length of the motion. Runs when DRUMSIM_VRMA_READER names the script (as `.ci/run`
+/// does).
+#[test]
+fn three_vrm_reads_the_vrm_animation() {
+    let Some(script) = std::env::var_os("DRUMSIM_VRMA_READER") else {
+        println!("DRUMSIM_VRMA_READER not set: skipping the three-vrm reader");
+        return;
+    };
+    let rig = Rig::default();
+    let motion = synthetic_motion(&rig, 2.0);
+    let dir = out_dir("vrma");
+    let paths = export::write_all(&motion, &rig, None, &dir, "take").unwrap();
+    let out = std::process::Command::new("node").arg(&script).arg(&paths.vrma).output().expect("run node");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let read: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    println!("three-vrm read: {read}");
+    let rotation: Vec<&str> = read["rotation"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    assert_eq!(rotation.len(), 53, "{rotation:?}");
+    for bone in ["hips", "upperChest", "jaw", "leftThumbMetacarpal", "rightLittleDistal", "leftToes"] {
+        assert!(rotation.contains(&bone), "no {bone} track");
+    }
+    assert_eq!(read["translation"], serde_json::json!(["hips"]));
+    assert_eq!(read["preset"], serde_json::json!(["blinkLeft", "blinkRight", "aa", "blink"]));
+    let frames = motion.frames.len() as f64;
+    assert!((read["duration"].as_f64().unwrap() - (frames - 1.0) / motion.fps).abs() < 1e-3, "{read}");
+    let hips_y = read["rest_hips"][1].as_f64().unwrap();
+    assert!((hips_y - rig.bones[0].offset.z as f64).abs() < 1e-4, "{read}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
