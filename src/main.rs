@@ -52,6 +52,12 @@ struct VmcArgs {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+enum RigNamesArg {
+    Drumsim,
+    Mixamo,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 enum VmcPacking {
     Mtu,
     Frame,
@@ -112,6 +118,10 @@ enum Command {
         /// hand model.
         #[arg(long)]
         teacher: bool,
+        /// The bone names of SONG.bvh and SONG.glb: drumsim's own, or Mixamo's
+        /// (`mixamorig:LeftForeArm`) for retargeting tools.
+        #[arg(long, value_enum, default_value_t = RigNamesArg::Drumsim)]
+        rig_names: RigNamesArg,
         /// Then show the render in the viewer (as `drumsim view`), on --port.
         #[arg(long, conflicts_with = "no_motion")]
         view: bool,
@@ -426,6 +436,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             no_motion,
             weights,
             teacher,
+            rig_names,
             view,
             port,
             vmc,
@@ -451,6 +462,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 sound: match sound {
                     SoundMode::Direct => drumsim::render::SoundMode::Direct,
                     SoundMode::Physical => drumsim::render::SoundMode::Physical,
+                },
+                rig_names: match rig_names {
+                    RigNamesArg::Drumsim => drumsim::motion::rig::RigNames::Drumsim,
+                    RigNamesArg::Mixamo => drumsim::motion::rig::RigNames::Mixamo,
                 },
             };
             let report = drumsim::render::render_file(&song, &opts)?;

@@ -46,6 +46,8 @@ pub struct RenderOptions {
     /// Hands from the corpus teacher instead of the hand model.
     pub teacher: bool,
     pub sound: SoundMode,
+    /// The bone names of SONG.bvh and SONG.glb.
+    pub rig_names: crate::motion::rig::RigNames,
 }
 
 impl Default for RenderOptions {
@@ -61,6 +63,7 @@ impl Default for RenderOptions {
             weights: None,
             teacher: false,
             sound: SoundMode::Direct,
+            rig_names: crate::motion::rig::RigNames::Drumsim,
         }
     }
 }
@@ -257,18 +260,19 @@ pub fn stage_motion(perf: &Performance, kit: &Kit, map: &NoteMap, hands: &Hands)
     Ok(Staged { planned, hands_from, seconds: started.elapsed().as_secs_f64() })
 }
 
-/// Write a staged motion's exports (SONG.motion.json, .bvh, .glb) under partial names of
-/// `set`, to be published with the rest of the render.
+/// Write a staged motion's exports (SONG.motion.json, .bvh, .glb, .vrma) under partial names
+/// of `set`, to be published with the rest of the render.
 pub fn stage_motion_files(
     staged: &Staged,
     kit: &Kit,
+    names: crate::motion::rig::RigNames,
     out_dir: &Path,
     stem: &str,
     set: &mut OutputSet,
 ) -> anyhow::Result<MotionOutput> {
     use crate::motion::{export, rig::Rig};
     let started = Instant::now();
-    let paths = export::stage_all(&staged.planned.motion, &Rig::default(), Some(kit), out_dir, stem, set)?;
+    let paths = export::stage_all_named(&staged.planned.motion, &Rig::default(), Some(kit), names, out_dir, stem, set)?;
     Ok(MotionOutput {
         paths,
         hands_from: staged.hands_from.clone(),
@@ -656,7 +660,8 @@ pub fn render_file(song: &Path, opts: &RenderOptions) -> anyhow::Result<RenderRe
     let json_path = opts.out_dir.join(format!("{stem}.contacts.json"));
     let json = serde_json::to_vec_pretty(&score.contacts)?;
     write_synced(&set.stage(&json_path), &json).map_err(|e| WriteError { path: json_path.clone(), source: e })?;
-    let motion = staged.map(|s| stage_motion_files(&s, &kit, &opts.out_dir, &stem, &mut set)).transpose()?;
+    let motion =
+        staged.map(|s| stage_motion_files(&s, &kit, opts.rig_names, &opts.out_dir, &stem, &mut set)).transpose()?;
     let total = ((score.duration_s + 2.0) * SAMPLE_RATE_HZ as f64) as u64;
     let bar = if opts.progress { indicatif::ProgressBar::new(total) } else { indicatif::ProgressBar::hidden() };
     bar.set_style(

@@ -491,3 +491,37 @@ fn three_vrm_reads_the_vrm_animation() {
     assert!((hips_y - rig.bones[0].offset.z as f64).abs() < 1e-4, "{read}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `render --rig-names mixamo`: the BVH's and glb's bones go by Mixamo's names, for
+/// retargeting tools; the motion JSON keeps drumsim's, and the viewer and VMC still read it.
+#[test]
+fn mixamo_names_in_the_bvh_and_glb() {
+    let dir = out_dir("mixamo");
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/demo/demo.mid");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_drumsim"))
+        .args(["render", demo, "--rig-names", "mixamo", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let glb = dir.join("demo.glb");
+    let doc = glb_json(&std::fs::read(&glb).unwrap());
+    let names: Vec<&str> = doc["nodes"].as_array().unwrap().iter().filter_map(|n| n["name"].as_str()).collect();
+    for bone in [
+        "mixamorig:Hips",
+        "mixamorig:Spine2",
+        "mixamorig:LeftForeArm",
+        "mixamorig:RightHandIndex3",
+        "mixamorig:LeftToeBase",
+    ] {
+        assert!(names.contains(&bone), "no {bone} in the glb");
+    }
+    assert!(!names.contains(&"hips"));
+    let bvh = std::fs::read_to_string(dir.join("demo.bvh")).unwrap();
+    assert!(bvh.contains("ROOT mixamorig:Hips") && bvh.contains("JOINT mixamorig:RightUpLeg"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("demo.motion.json")).unwrap()).unwrap();
+    assert_eq!(json["bones"][0]["name"], "hips");
+    khronos_validate(&glb);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

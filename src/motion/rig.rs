@@ -66,6 +66,56 @@ impl Default for RigSettings {
     }
 }
 
+/// The names the bones go by in the BVH and glTF exports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RigNames {
+    /// drumsim's own (`left_forearm`).
+    #[default]
+    Drumsim,
+    /// Mixamo's (`mixamorig:LeftForeArm`), which retargeting tools recognise.
+    Mixamo,
+}
+
+/// The Mixamo name of a drumsim bone (`mixamorig:` + Mixamo's bone name; drumsim's bones
+/// without a Mixamo counterpart, `neck1` and `jaw`, keep a name in Mixamo's style).
+pub fn mixamo_name(drumsim: &str) -> String {
+    let (side, rest) = match drumsim.split_once('_') {
+        Some(("left", r)) => ("Left", r),
+        Some(("right", r)) => ("Right", r),
+        _ => ("", drumsim),
+    };
+    let finger = |f: &str| rest.strip_prefix(f).filter(|n| n.len() == 1).map(|n| n.to_string());
+    let name = match rest {
+        "hips" => "Hips".to_string(),
+        "spine" => "Spine".to_string(),
+        "spine1" => "Spine1".to_string(),
+        "spine2" => "Spine2".to_string(),
+        "neck" => "Neck".to_string(),
+        "neck1" => "Neck1".to_string(),
+        "head" => "Head".to_string(),
+        "head_end" => "HeadTop_End".to_string(),
+        "jaw" => "Jaw".to_string(),
+        "eye" => "Eye".to_string(),
+        "shoulder" => "Shoulder".to_string(),
+        "arm" => "Arm".to_string(),
+        "forearm" => "ForeArm".to_string(),
+        "hand" => "Hand".to_string(),
+        "upper_leg" => "UpLeg".to_string(),
+        "leg" => "Leg".to_string(),
+        "foot" => "Foot".to_string(),
+        "toe" => "ToeBase".to_string(),
+        _ => {
+            let fingers =
+                [("thumb", "Thumb"), ("index", "Index"), ("middle", "Middle"), ("ring", "Ring"), ("pinky", "Pinky")];
+            match fingers.iter().find_map(|(d, m)| finger(d).map(|n| format!("Hand{m}{n}"))) {
+                Some(n) => n,
+                None => rest.to_string(),
+            }
+        }
+    };
+    format!("mixamorig:{side}{name}")
+}
+
 /// Bad rig settings; the message names the key and the allowed range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -200,6 +250,17 @@ impl Rig {
         Rig { settings, bones, grip_local, fist: [fist(-1.0), fist(1.0)] }
     }
 
+    /// The same rig with its bones named the `names` way.
+    pub fn named(&self, names: RigNames) -> Rig {
+        let mut rig = self.clone();
+        if names == RigNames::Mixamo {
+            for b in &mut rig.bones {
+                b.name = mixamo_name(&b.name);
+            }
+        }
+        rig
+    }
+
     /// Index of the bone with this name.
     pub fn index_of(&self, name: &str) -> Option<usize> {
         self.bones.iter().position(|b| b.name == name)
@@ -326,6 +387,24 @@ mod tests {
         assert_eq!(rig.index_of("left_upper_leg"), Some(UPPER_LEG[0]));
         assert_eq!(rig.index_of("head"), Some(HEAD));
         assert_eq!(rig.index_of("right_pinky3"), Some(HAND[1] + 15));
+    }
+
+    #[test]
+    fn mixamo_names() {
+        let rig = Rig::default().named(RigNames::Mixamo);
+        let name = |i: usize| rig.bones[i].name.as_str();
+        assert_eq!(name(HIPS), "mixamorig:Hips");
+        assert_eq!(name(HAND[0] - 1), "mixamorig:LeftForeArm");
+        assert_eq!(name(HAND[1] + 15), "mixamorig:RightHandPinky3");
+        assert_eq!(name(HAND[0] + 1), "mixamorig:LeftHandThumb1");
+        assert_eq!(name(UPPER_LEG[1]), "mixamorig:RightUpLeg");
+        assert_eq!(name(FOOT[0] + 1), "mixamorig:LeftToeBase");
+        assert_eq!(name(9), "mixamorig:LeftEye");
+        assert_eq!(name(7), "mixamorig:HeadTop_End");
+        let mut names: Vec<&str> = rig.bones.iter().map(|b| b.name.as_str()).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), BONES, "names are unique");
     }
 
     #[test]

@@ -27,7 +27,7 @@ pub fn write_baked(baked: &Baked, path: &Path) -> Result<(), ExportError> {
     let rig = baked.rig;
     write_file(path, |w: &mut dyn Write| {
         writeln!(w, "HIERARCHY")?;
-        write_joint(w, rig, 0, 0)?;
+        write_joint(w, rig, &baked.names, 0, 0)?;
         writeln!(w, "MOTION")?;
         writeln!(w, "Frames: {}", baked.poses.len())?;
         writeln!(w, "Frame Time: {:.8}", 1.0 / baked.motion.fps)?;
@@ -60,17 +60,17 @@ fn finite(x: f32, digits: usize) -> String {
     }
 }
 
-fn write_joint(w: &mut dyn Write, rig: &Rig, bone: usize, depth: usize) -> std::io::Result<()> {
+fn write_joint(w: &mut dyn Write, rig: &Rig, names: &[String], bone: usize, depth: usize) -> std::io::Result<()> {
     let pad = "  ".repeat(depth);
     let b = &rig.bones[bone];
     let offset = |v: Vector3<f32>| y_up(v * CM).map(|x| finite(x, 4)).join(" ");
     if b.parent.is_none() {
-        writeln!(w, "{pad}ROOT {}", b.name)?;
+        writeln!(w, "{pad}ROOT {}", names[bone])?;
         writeln!(w, "{pad}{{")?;
         writeln!(w, "{pad}  OFFSET 0.0000 0.0000 0.0000")?;
         writeln!(w, "{pad}  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation")?;
     } else {
-        writeln!(w, "{pad}JOINT {}", b.name)?;
+        writeln!(w, "{pad}JOINT {}", names[bone])?;
         writeln!(w, "{pad}{{")?;
         writeln!(w, "{pad}  OFFSET {}", offset(b.offset))?;
         writeln!(w, "{pad}  CHANNELS 3 Zrotation Xrotation Yrotation")?;
@@ -83,7 +83,7 @@ fn write_joint(w: &mut dyn Write, rig: &Rig, bone: usize, depth: usize) -> std::
         writeln!(w, "{pad}  }}")?;
     }
     for c in children {
-        write_joint(w, rig, c, depth + 1)?;
+        write_joint(w, rig, names, c, depth + 1)?;
     }
     writeln!(w, "{pad}}}")
 }

@@ -283,7 +283,7 @@ fn build(baked: &Baked) -> Vec<u8> {
         .enumerate()
         .map(|(i, b)| {
             let offset = if b.parent.is_none() { b.offset + Vector3::z() * lift } else { b.offset };
-            let mut node = json!({"name": b.name, "translation": y_up(offset)});
+            let mut node = json!({"name": baked.names[i], "translation": y_up(offset)});
             let children: Vec<usize> = (0..n).filter(|&c| rig.bones[c].parent == Some(i)).collect();
             if !children.is_empty() {
                 node["children"] = json!(children);

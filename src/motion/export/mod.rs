@@ -18,7 +18,7 @@ pub mod shapes;
 pub mod vrma;
 
 use super::body_ik;
-use super::rig::{BodyPose, Rig};
+use super::rig::{BodyPose, Rig, RigNames};
 use super::track::Motion;
 use crate::kit::Kit;
 use crate::outputs::OutputSet;
@@ -64,8 +64,23 @@ pub fn stage_all(
     song: &str,
     set: &mut OutputSet,
 ) -> Result<Paths, ExportError> {
+    stage_all_named(motion, rig, kit, RigNames::Drumsim, dir, song, set)
+}
+
+/// [`stage_all`] with the BVH's and glTF's bones named the `names` way (SONG.motion.json
+/// keeps drumsim's names; SONG.vrma has VRM's).
+pub fn stage_all_named(
+    motion: &Motion,
+    rig: &Rig,
+    kit: Option<&Kit>,
+    names: RigNames,
+    dir: &Path,
+    song: &str,
+    set: &mut OutputSet,
+) -> Result<Paths, ExportError> {
     let mut baked = Baked::new(motion, rig)?;
     baked.kit = kit;
+    baked.names = rig.named(names).bones.into_iter().map(|b| b.name).collect();
     let paths = Paths {
         json: dir.join(format!("{song}.motion.json")),
         bvh: dir.join(format!("{song}.bvh")),
@@ -108,6 +123,9 @@ pub struct Baked<'a> {
     pub poses: Vec<BodyPose>,
     /// The kit to put in the glTF scene beside the drummer (none: the drummer alone).
     pub kit: Option<&'a Kit>,
+    /// The names of the bones in the BVH and glTF (the rig's own unless renamed; the motion
+    /// JSON and the VRM Animation always use the rig's).
+    pub names: Vec<String>,
 }
 
 impl<'a> Baked<'a> {
@@ -126,7 +144,8 @@ impl<'a> Baked<'a> {
                 return bad(format!("frame {i}: {} face weights, expected {}", f.face.len(), super::ARKIT_NAMES.len()));
             }
         }
-        Ok(Baked { motion, rig, poses: body_ik::solve_motion(rig, motion), kit: None })
+        let names = rig.bones.iter().map(|b| b.name.clone()).collect();
+        Ok(Baked { motion, rig, poses: body_ik::solve_motion(rig, motion), kit: None, names })
     }
 
     /// Time of frame `i`, s.
