@@ -264,7 +264,7 @@ impl Poser {
         let mut pacer = Pacer::new(RATE_HZ);
         let (mut newest, mut before): (Option<Arc<WindowPlan>>, Option<Arc<WindowPlan>>) = (None, None);
         let mut since = 0.0;
-        let mut shown_before = f64::NEG_INFINITY;
+        let mut struck_until = f64::NEG_INFINITY;
         let mut lift_before = 0.0;
         let mut scratch = Vec::new();
         let mut unity = vmc.as_ref().map(|(h, _, _)| h.empty_pose());
@@ -332,7 +332,9 @@ impl Poser {
                 push_floats(&mut text, &frame.hands[1].stick_tip());
                 text.push_str("],\"strikes\":[");
                 let mut first = true;
-                for (at, piece, velocity) in plan.notes.iter().filter(|n| n.0 > shown_before && n.0 <= shown) {
+                // Each note once, when the shown moment reaches it (or at once when its plan
+                // came later than that, with a lookahead shorter than a plan takes).
+                for (at, piece, velocity) in plan.notes.iter().filter(|n| n.0 > struck_until && n.0 <= shown) {
                     if !first {
                         text.push(',');
                     }
@@ -340,9 +342,9 @@ impl Poser {
                     let _ = write!(text, "{{\"piece\":{piece:?},\"at\":{at:.4},\"velocity\":{velocity}}}");
                 }
                 text.push_str("]}");
+                struck_until = plan.notes.iter().map(|n| n.0).filter(|&t| t <= shown).fold(struck_until, f64::max);
                 hub.broadcast(Arc::from(text.as_str()));
             }
-            shown_before = shown;
             stats.frames.fetch_add(1, Relaxed);
         }
     }

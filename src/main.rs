@@ -67,11 +67,12 @@ enum VmcPacking {
 impl VmcArgs {
     /// The options, when --vmc (or `default`) names a receiver; checked before any work.
     fn options(&self, default: Option<&str>) -> Result<Option<drumsim::vmc::VmcOptions>, drumsim::vmc::VmcError> {
+        // The parts are checked even without a receiver, so a mistake is never silent.
+        let (groups, face) = drumsim::vmc::parse_parts(&self.vmc_parts)?;
         let Some(target) = self.vmc.as_deref().or(default) else {
             return Ok(None);
         };
         let target = drumsim::vmc::parse_target(target)?;
-        let (groups, face) = drumsim::vmc::parse_parts(&self.vmc_parts)?;
         use drumsim::vmc::packets::{Content, Packing};
         Ok(Some(drumsim::vmc::VmcOptions {
             target,

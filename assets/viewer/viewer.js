@@ -84,7 +84,7 @@ const VIEWS = {
   seat: { position: [0.28, 1.9, -0.38], target: [0, 0.66, 0.62] },
   top: { position: [0, 3.4, 0.36], target: [0, 0.4, 0.35] },
 };
-let follow = params.get('follow') === '1';
+let follow = params.get('follow') === '1' || params.get('view') === 'follow';
 let sticking = params.get('sticking') === '1';
 
 function setView(name) {
@@ -306,7 +306,12 @@ function applyLiveFrame(msg) {
 function connectLive() {
   const socket = new WebSocket(`ws://${location.host}/live`);
   live.socket = socket;
-  socket.onopen = () => { live.connects += 1; $('message').hidden = true; };
+  socket.onopen = () => {
+    live.connects += 1;
+    $('message').hidden = true;
+    // A new session's clock starts again: forget the strikes of the one before.
+    for (const p of pieces.values()) { p.times.length = 0; p.limbs.length = 0; p.levels.length = 0; }
+  };
   socket.onmessage = (e) => applyLiveFrame(JSON.parse(e.data));
   // drumsim stopped or restarted: say so and try again every second.
   socket.onclose = () => {

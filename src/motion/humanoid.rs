@@ -142,7 +142,7 @@ impl Humanoid {
         for i in 0..names.len() {
             let p = match parents[i] {
                 Some(p) if p < i => rest[p] + offsets[i],
-                Some(_) => return Err(MissingBone(format!("{} after its parent", names[i]))),
+                Some(_) => return Err(MissingBone(format!("{} (it comes before its parent)", names[i]))),
                 None => offsets[i],
             };
             rest.push(p);

@@ -74,6 +74,8 @@ fn handle(stream: TcpStream, routes: &[Route]) -> std::io::Result<()> {
         let mut range = None;
         let mut close = false;
         let mut websocket_key = None;
+        let mut upgrade = false;
+        let mut origin = None;
         loop {
             let mut header = String::new();
             if reader.read_line(&mut header)? == 0 {
@@ -88,6 +90,8 @@ fn handle(stream: TcpStream, routes: &[Route]) -> std::io::Result<()> {
                     "range" => range = Some(value.trim().to_string()),
                     "connection" => close = value.trim().eq_ignore_ascii_case("close"),
                     "sec-websocket-key" => websocket_key = Some(value.trim().to_string()),
+                    "upgrade" => upgrade = value.trim().eq_ignore_ascii_case("websocket"),
+                    "origin" => origin = Some(value.trim().to_string()),
                     _ => {}
                 }
             }
@@ -99,10 +103,20 @@ fn handle(stream: TcpStream, routes: &[Route]) -> std::io::Result<()> {
             match routes.iter().find(|r| r.path == path) {
                 None => respond(&mut out, "404 Not Found", "text/plain", b"not found\n", method == "HEAD", &[])?,
                 Some(Route { body: Body::Socket(handler), .. }) => {
-                    let Some(key) = websocket_key else {
+                    let (Some(key), true, "GET") = (websocket_key, upgrade, method) else {
                         let text = b"a WebSocket: connect with new WebSocket(...)\n";
-                        return respond(&mut out, "426 Upgrade Required", "text/plain", text, method == "HEAD", &[]);
+                        let extra = [("Upgrade", "websocket".to_string()), ("Sec-WebSocket-Version", "13".into())];
+                        return respond(&mut out, "426 Upgrade Required", "text/plain", text, method == "HEAD", &extra);
                     };
+                    // Only the page this server serves may connect (not any site open in the
+                    // same browser): its origin is this host, or none (a program).
+                    let local = |o: &str| {
+                        let host = o.strip_prefix("http://").unwrap_or("");
+                        host.starts_with("127.0.0.1:") || host.starts_with("localhost:") || host.starts_with("[::1]:")
+                    };
+                    if origin.as_deref().is_some_and(|o| !local(o)) {
+                        return respond(&mut out, "403 Forbidden", "text/plain", b"another site's page\n", false, &[]);
+                    }
                     let accept = tungstenite::handshake::derive_accept_key(key.as_bytes());
                     write!(
                         out,

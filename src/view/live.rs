@@ -58,6 +58,9 @@ impl super::http::SocketHandler for LiveHub {
     fn serve(&self, stream: TcpStream) {
         let frames = self.join();
         let _ = stream.set_nodelay(true);
+        // A page that stops reading (a frozen tab) ends its connection instead of holding
+        // this thread for ever.
+        let _ = stream.set_write_timeout(Some(std::time::Duration::from_secs(5)));
         let mut ws = WebSocket::from_raw_socket(stream, Role::Server, None);
         for text in frames.iter() {
             if ws.send(Message::text(text.to_string())).is_err() {

@@ -41,7 +41,7 @@ pub struct RenderFiles {
 
 /// The extensions of a render's files: `OUT/SONG`, `OUT/SONG.wav`, `OUT/SONG.glb` and the
 /// rest all name the same render.
-const EXTENSIONS: [&str; 6] = [".contacts.json", ".motion.json", ".wav", ".glb", ".bvh", ".mid"];
+const EXTENSIONS: [&str; 8] = [".contacts.json", ".motion.json", ".wav", ".glb", ".bvh", ".vrma", ".mp4", ".mid"];
 
 /// Find and check the render named by `path` (`OUT/SONG` or one of its files).
 pub fn find_render(path: &Path) -> Result<RenderFiles, ViewError> {

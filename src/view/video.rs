@@ -200,7 +200,7 @@ pub fn make_video(path: &Path, opts: &VideoOptions) -> anyhow::Result<VideoRepor
     });
     let mut all = routes(&render);
     all.push(Route { path: "/frames".into(), content_type: "text/plain", body: Body::Socket(sink.clone()) });
-    let url = super::start_live(all, 0)?;
+    let url = super::start_live(all, 0).map_err(|e| VideoError::Failed(format!("cannot serve the page: {e}")))?;
     let started = std::time::Instant::now();
     let page = format!(
         "{url}?video=1&ui=0&w={}&h={}&fps={}&frames={frames}&view={}",
@@ -231,7 +231,9 @@ pub fn make_video(path: &Path, opts: &VideoOptions) -> anyhow::Result<VideoRepor
         .map_err(|e| VideoError::Failed(format!("cannot start {}: {e}", browser.display())))?;
     let mut chrome = Guard(chrome);
 
-    // The page's outcome; Chromium that exits first, or never connects, is an error.
+    // The page's outcome; Chromium that exits first, never connects or stops drawing is an
+    // error.
+    let mut last = (0, std::time::Instant::now());
     let outcome = loop {
         match done_rx.recv_timeout(Duration::from_millis(200)) {
             Ok(r) => break r,
@@ -239,23 +241,34 @@ pub fn make_video(path: &Path, opts: &VideoOptions) -> anyhow::Result<VideoRepor
                 if let Ok(Some(status)) = chrome.0.try_wait() {
                     break Err(format!("Chromium exited ({status}) before the video was drawn"));
                 }
-                if progress.position() == 0 && progress.elapsed() > Duration::from_secs(120) {
-                    break Err("Chromium drew no frame in 2 minutes".into());
+                if progress.position() != last.0 {
+                    last = (progress.position(), std::time::Instant::now());
+                }
+                let (limit, what) = if last.0 == 0 { (120, "no frame") } else { (60, "no new frame") };
+                if last.1.elapsed() > Duration::from_secs(limit) {
+                    break Err(format!("Chromium drew {what} in {limit} s"));
                 }
             }
         }
     };
     drop(chrome);
-    let _ = std::fs::remove_dir_all(&profile);
+    // Chromium's helper processes may still be closing their files: try a few times.
+    for _ in 0..20 {
+        if std::fs::remove_dir_all(&profile).is_ok() || !profile.exists() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
     progress.finish_and_clear();
     // Closing ffmpeg's input ends the video; then it writes the file.
     drop(sink.encoder.lock().unwrap_or_else(|e| e.into_inner()).take());
     let status = encoder.0.wait().map_err(|e| VideoError::Failed(format!("ffmpeg: {e}")))?;
     let log = errors.join().unwrap_or_default();
-    let taken = outcome.map_err(VideoError::Failed)?;
+    // ffmpeg's own failure first: it is why the page's frames stopped going in.
     if !status.success() {
         return Err(VideoError::Failed(format!("ffmpeg failed ({status}): {}", log.trim())).into());
     }
+    let taken = outcome.map_err(VideoError::Failed)?;
     if taken != frames {
         return Err(VideoError::Failed(format!("the page drew {taken} frames of {frames}")).into());
     }

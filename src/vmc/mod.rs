@@ -55,6 +55,8 @@ pub struct VmcOptions {
 pub fn parse_target(text: &str) -> Result<SocketAddr, VmcError> {
     let bad = |reason: String| VmcError::Target { target: text.to_string(), reason };
     let (host, port) = match text.rsplit_once(':') {
+        // "[::1]" alone: the colon is the address's.
+        _ if text.starts_with('[') && text.ends_with(']') => (&text[1..text.len() - 1], DEFAULT_PORT),
         Some((h, p)) if !h.is_empty() && (!h.contains(':') || h.starts_with('[')) => {
             let port: u16 = p.parse().map_err(|_| bad(format!("{p:?} is not a port (1-65535)")))?;
             (h.trim_start_matches('[').trim_end_matches(']'), port)
@@ -154,6 +156,10 @@ impl MotionFile {
             if f.bones.iter().flatten().chain(&f.face).any(|v| !v.is_finite()) {
                 return Err(bad(format!("frame {i}: a number that is not finite")));
             }
+            if let Some(b) = f.bones.iter().position(|b| (b[3] * b[3] + b[4] * b[4] + b[5] * b[5] + b[6] * b[6]) < 0.25)
+            {
+                return Err(bad(format!("frame {i}: bone {b}'s rotation is not a unit quaternion")));
+            }
             let rot = f
                 .bones
                 .iter()
@@ -201,7 +207,7 @@ impl std::fmt::Display for PlayReport {
 /// The motion file of a render named by `path` (`OUT/SONG` or one of its files).
 pub fn motion_path(path: &Path) -> PathBuf {
     let text = path.to_string_lossy();
-    let stem = [".contacts.json", ".motion.json", ".wav", ".glb", ".bvh", ".mid"]
+    let stem = [".contacts.json", ".motion.json", ".wav", ".glb", ".bvh", ".vrma", ".mp4", ".mid"]
         .iter()
         .find_map(|e| text.strip_suffix(e))
         .unwrap_or(&text)
@@ -263,6 +269,7 @@ mod tests {
         assert_eq!(parse_target("127.0.0.1:40000").unwrap(), "127.0.0.1:40000".parse().unwrap());
         assert_eq!(parse_target("[::1]:40000").unwrap(), "[::1]:40000".parse().unwrap());
         assert_eq!(parse_target("::1").unwrap(), "[::1]:39539".parse().unwrap());
+        assert_eq!(parse_target("[::1]").unwrap(), "[::1]:39539".parse().unwrap());
         for bad in ["127.0.0.1:x", "127.0.0.1:0", ":39539", "no-such-host.invalid:39539"] {
             let e = parse_target(bad).unwrap_err();
             assert!(e.to_string().starts_with(&format!("--vmc {bad}:")), "{e}");

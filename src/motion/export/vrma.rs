@@ -7,9 +7,10 @@
 //! rotation the identity, the joints at drumsim's proportions, glTF's Y-up frame with the
 //! drummer facing +Z (as a VRM 1.0 model faces). One animation at 60 frames a second: each
 //! bone's rotation from the T-pose, and the hips' translation (the only one VRM Animation
-//! allows). The face: the ARKit weights the motion moves as custom expressions under their
-//! ARKit names (for "perfect sync" models), and blink, blinkLeft, blinkRight and aa (jaw
-//! open) as presets, each an expression node whose translation's x is the weight.
+//! allows). The face: blink, blinkLeft, blinkRight and aa (jaw open) as presets (VRM adds
+//! expressions up, so `blink` is both eyes' shared closing and each eye's preset the rest),
+//! the other ARKit weights the motion moves as custom expressions under their ARKit names
+//! (for "perfect sync" models), each an expression node whose translation's x is the weight.
 
 use super::gltf::{bounds, clean, glb, Bin, FLOAT};
 use super::{write_file, y_up, y_up_rot, Baked, ExportError};
@@ -108,17 +109,21 @@ fn build(baked: &Baked) -> Vec<u8> {
         nodes.len() - 1
     };
     let face = |i: usize, k: usize| baked.motion.frames[i].face[k];
+    // VRM adds expressions up: both eyes' shared closing is `blink`, each eye's own the rest.
+    let (l, r) = (weight_of("eyeBlinkLeft"), weight_of("eyeBlinkRight"));
+    let both = |i: usize| face(i, l).min(face(i, r));
     for (vrm, arkit) in PRESETS {
         let k = weight_of(arkit);
-        let node = expression(&mut nodes, &mut bin, vrm, &|i| face(i, k));
+        let own = |i: usize| if k == l || k == r { face(i, k) - both(i) } else { face(i, k) };
+        let node = expression(&mut nodes, &mut bin, vrm, &own);
         preset.insert(vrm.to_string(), json!({"node": node}));
     }
-    let (l, r) = (weight_of("eyeBlinkLeft"), weight_of("eyeBlinkRight"));
-    let node = expression(&mut nodes, &mut bin, "blink", &|i| face(i, l).min(face(i, r)));
+    let node = expression(&mut nodes, &mut bin, "blink", &both);
     preset.insert("blink".to_string(), json!({"node": node}));
-    // The ARKit weights the motion moves (one that stays 0 needs no key: unanimated is 0).
+    // The other ARKit weights the motion moves (one that stays 0 needs no key: unanimated is
+    // 0); the blinks and the jaw are the presets' already, and would add up with them.
     for (k, name) in ARKIT_NAMES.iter().enumerate() {
-        if (0..frames).all(|i| face(i, k) == 0.0) {
+        if PRESETS.iter().any(|(_, a)| a == name) || (0..frames).all(|i| face(i, k) == 0.0) {
             continue;
         }
         let node = expression(&mut nodes, &mut bin, name, &|i| face(i, k));
@@ -211,8 +216,9 @@ mod tests {
         assert!(
             !bones.contains_key("leftEye") && bones.contains_key("leftThumbMetacarpal") && bones.contains_key("jaw")
         );
-        // Only the weights that move (the test motion moves the first).
-        assert_eq!(ext["expressions"]["custom"].as_object().unwrap().len(), 1);
+        // Only the weights that move and no preset has (the test motion moves eyeBlinkLeft, a
+        // preset's).
+        assert_eq!(ext["expressions"]["custom"].as_object().unwrap().len(), 0);
         let floats = |acc: usize| -> Vec<f32> {
             let a = &doc["accessors"][acc];
             let view = &doc["bufferViews"][a["bufferView"].as_u64().unwrap() as usize];
@@ -270,8 +276,8 @@ mod tests {
                 assert!((entry.0 - expected).norm() < tolerance, "frame {f} {unity}: {} vs {expected}", entry.0);
             }
         }
-        // The blink of the left eye follows the ARKit weight.
-        let node = ext["expressions"]["custom"]["eyeBlinkLeft"]["node"].as_u64().unwrap() as usize;
+        // The blink of the left eye follows the ARKit weight (the right eye stays open).
+        let node = ext["expressions"]["preset"]["blinkLeft"]["node"].as_u64().unwrap() as usize;
         let w = channel(node, "translation");
         assert_eq!([w[0], w[3], w[6], w[9]], [0.0, 0.25, 0.5, 0.75]);
     }
