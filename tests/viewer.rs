@@ -383,6 +383,17 @@ fn drumsim_video_writes_the_song_as_h264_with_its_audio() {
     save_png(&shots.join("video-lit.png"), &lit);
     save_png(&shots.join("video-unlit.png"), &unlit);
     assert!(warmer > 1_000, "the struck drum is not lit in the video: {warmer} pixels warmer");
+
+    // --view picks the camera: the follow camera's picture is not the audience's.
+    let mut small = Vec::new();
+    for view in ["audience", "follow"] {
+        let out = drumsim().arg("video").arg(&render).args(["--size", "320x180", "--view", view]).output().unwrap();
+        assert!(out.status.success(), "{view}: {}", String::from_utf8_lossy(&out.stderr));
+        small.push(video_frame(&video, 120, 320, 180));
+    }
+    let moved = small[0].differing(&small[1], (0, 0, 320, 180), 40);
+    println!("follow against audience at frame 120: {moved} pixels differ");
+    assert!(moved > 5_000, "--view follow drew the audience's picture ({moved} pixels differ)");
 }
 
 fn save_png(path: &Path, img: &Image) {
