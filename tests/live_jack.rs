@@ -94,11 +94,16 @@ struct Drumsim {
 
 impl Drumsim {
     fn live(server: &JackServer, args: &[&str]) -> Drumsim {
+        Drumsim::start(server, args, Stdio::null())
+    }
+
+    /// `drumsim live ARGS` on `server`, its stderr collected line by line.
+    fn start(server: &JackServer, args: &[&str], stdout: Stdio) -> Drumsim {
         let mut child = Command::new(env!("CARGO_BIN_EXE_drumsim"))
             .arg("live")
             .args(args)
             .env("JACK_DEFAULT_SERVER", &server.name)
-            .stdout(Stdio::null())
+            .stdout(stdout)
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
@@ -146,24 +151,9 @@ impl Drumsim {
 impl Drumsim {
     /// `drumsim live` with the page: its stdout is read for the page's address.
     fn live_with_page(server: &JackServer, args: &[&str]) -> (Drumsim, String) {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_drumsim"))
-            .arg("live")
-            .args(args)
-            .env("JACK_DEFAULT_SERVER", &server.name)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let lines = Arc::new(Mutex::new(Vec::new()));
-        let (stderr, sink) = (child.stderr.take().unwrap(), lines.clone());
-        thread::spawn(move || {
-            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                eprintln!("  [drumsim] {line}");
-                sink.lock().unwrap().push(line);
-            }
-        });
+        let mut drumsim = Drumsim::start(server, args, Stdio::piped());
         let (tx, rx) = std::sync::mpsc::channel();
-        let stdout = child.stdout.take().unwrap();
+        let stdout = drumsim.child.stdout.take().unwrap();
         thread::spawn(move || {
             for line in BufReader::new(stdout).lines().map_while(Result::ok) {
                 if let Some(url) = line.split_whitespace().find(|w| w.starts_with("http://")) {
@@ -171,7 +161,6 @@ impl Drumsim {
                 }
             }
         });
-        let mut drumsim = Drumsim { child, lines };
         let url = rx.recv_timeout(Duration::from_secs(30)).unwrap_or_else(|_| {
             let _ = drumsim.child.kill();
             panic!("drumsim live printed no page address:\n{}", drumsim.stderr())

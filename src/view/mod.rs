@@ -146,11 +146,7 @@ pub fn routes(render: &RenderFiles) -> Vec<Route> {
         "contacts": render.contact_count,
     });
     let mut routes = page_routes();
-    routes.push(Route {
-        path: "/info.json".into(),
-        content_type: "application/json",
-        body: Body::Bytes(Arc::from(info.to_string().into_bytes())),
-    });
+    routes.push(info_route(&info));
     routes.push(Route {
         path: "/song.glb".into(),
         content_type: "model/gltf-binary",
@@ -165,15 +161,20 @@ pub fn routes(render: &RenderFiles) -> Vec<Route> {
     routes
 }
 
+/// `/info.json`: what the page shows (song, sound, kit; `live` for the live page).
+fn info_route(info: &serde_json::Value) -> Route {
+    Route {
+        path: "/info.json".into(),
+        content_type: "application/json",
+        body: Body::Bytes(Arc::from(info.to_string().into_bytes())),
+    }
+}
+
 /// The routes of the live page: the page, `info` (with `"live": true`), the drummer and kit
 /// as a glb, and the pose stream at `/live`.
 pub fn live_routes(info: &serde_json::Value, glb: Vec<u8>, hub: Arc<live::LiveHub>) -> Vec<Route> {
     let mut routes = page_routes();
-    routes.push(Route {
-        path: "/info.json".into(),
-        content_type: "application/json",
-        body: Body::Bytes(Arc::from(info.to_string().into_bytes())),
-    });
+    routes.push(info_route(info));
     routes.push(Route {
         path: "/song.glb".into(),
         content_type: "model/gltf-binary",

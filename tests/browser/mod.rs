@@ -50,14 +50,10 @@ impl Image {
     }
 }
 
-/// The Chromium binary: $CHROMIUM, else `chromium` or `chromium-browser` on the PATH.
+/// The Chromium binary: $CHROMIUM, else `chromium`, `chromium-browser` or `google-chrome` on
+/// the PATH (the lookup `drumsim video` uses).
 pub fn chromium() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("CHROMIUM") {
-        return Some(PathBuf::from(p));
-    }
-    ["chromium", "chromium-browser", "google-chrome"].iter().find_map(|name| {
-        std::env::var_os("PATH")?.to_str()?.split(':').map(|d| PathBuf::from(d).join(name)).find(|p| p.is_file())
-    })
+    drumsim::view::video::chromium()
 }
 
 impl Browser {
