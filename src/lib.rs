@@ -4,6 +4,7 @@
 //! The sound engine and the body meet only through the contact message of
 //! [`interaction::message`]. See ARCHITECTURE.md for the map of the crate.
 
+pub mod audition;
 pub mod avatar;
 pub mod body;
 pub mod check;

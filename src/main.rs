@@ -205,6 +205,15 @@ enum Command {
         #[command(flatten)]
         vmc: VmcArgs,
     },
+    /// Every piece of a kit struck alone at several velocities and zones: DIR/PIECE.wav and
+    /// DIR/audition.json with each hit's measures (level, centroid, decay, tail, pitch, contact).
+    Audition {
+        /// Kit: a built-in kit (default, rearranged) or a kit file (default: default).
+        #[arg(long)]
+        kit: Option<PathBuf>,
+        #[arg(long, default_value = "audition")]
+        out: PathBuf,
+    },
     /// List MIDI inputs and audio outputs.
     Devices,
     /// The HIMC stroke evaluation: five stroke styles, many perturbed trials, tip-tracking
@@ -551,6 +560,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 Err(check::ChecksFailed { names: names.join(", "), failed: names.len(), total: report.checks.len() }
                     .into())
             }
+        }
+        Command::Audition { kit, out } => {
+            let kit = match &kit {
+                Some(path) => drumsim::kit::Kit::load(path)?,
+                None => drumsim::kit::Kit::builtin_default(),
+            };
+            let audition = drumsim::audition::audition(&kit, Some(&out))?;
+            print!("{}", drumsim::audition::table(&audition));
+            println!("wrote {} WAVs and audition.json to {}", audition.wavs(), out.display());
+            Ok(())
         }
         Command::Strokes { mode, trials, json, traces, threads, kit } => {
             use drumsim::body::sim::Mode;

@@ -8,3 +8,4 @@ pub mod note_sound;
 pub mod report;
 pub mod savgol;
 pub mod strike;
+pub mod timbre;

@@ -20,6 +20,9 @@ struct RawKit {
     pedals: Option<RawPedals>,
 }
 
+/// Oscillators per piece when the kit does not say: membranes, plates.
+const DEFAULT_MAX_MODES: [usize; 2] = [1024, 256];
+
 /// Exactly three numbers: serde's arrays let a fourth through unseen.
 fn three<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
     let v: Vec<f32> = Deserialize::deserialize(d)?;
@@ -55,6 +58,7 @@ struct RawPiece {
     areal_density_kg_m2: f32,
     max_hz: f32,
     max_modes: Option<usize>,
+    tension_modulation: Option<f32>,
     chladni_exponent: Option<f32>,
     hertz_k: f32,
     hertz_alpha: f32,
@@ -214,7 +218,14 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Kit, KitError> {
             damping_exponent: c.range(&key("damping_exponent"), p.damping_exponent, 0.0, 3.0)?,
             areal_density_kg_m2: c.range(&key("areal_density_kg_m2"), p.areal_density_kg_m2, 0.01, 100.0)?,
             max_hz,
-            max_modes: c.range(&key("max_modes"), p.max_modes.unwrap_or(256) as f32, 1.0, 1024.0)? as usize,
+            // A membrane's modes up to max_hz: the lowest 320 one by one, a thinned band above.
+            max_modes: c.range(
+                &key("max_modes"),
+                p.max_modes.unwrap_or(DEFAULT_MAX_MODES[kind as usize]) as f32,
+                1.0,
+                8192.0,
+            )? as usize,
+            tension_modulation: c.range(&key("tension_modulation"), p.tension_modulation.unwrap_or(1.0), 0.0, 10.0)?,
             chladni_exponent: c.range(&key("chladni_exponent"), p.chladni_exponent.unwrap_or(1.4), 1.0, 2.5)?,
             hertz_k: c.range(&key("hertz_k"), p.hertz_k, 1e4, 1e12)?,
             hertz_alpha: c.range(&key("hertz_alpha"), p.hertz_alpha, 1.0, 4.0)?,

@@ -76,17 +76,24 @@ struct Chunk {
     s: Lane,
     kick: Lane,
     phi: Lane,
+    /// Change of v per unit of tension rise and of q over one sub-step (w0^2 / wd h).
+    tension: Lane,
+    /// The mode's share of the tension rise per squared displacement ([`ModeSet::stretch`]
+    /// times M w0^2).
+    stretch: Lane,
 }
 
-/// Per-mode arrays for one piece, preallocated so a strike does not allocate.
+/// Per-mode arrays for one piece, and the contact's impulse per sample, preallocated so a
+/// strike does not allocate.
 #[derive(Debug, Clone)]
 pub struct ContactScratch {
     chunks: Vec<Chunk>,
+    impulses: Vec<f32>,
 }
 
 impl ContactScratch {
-    pub fn new(modes: usize) -> ContactScratch {
-        ContactScratch { chunks: vec![Chunk::default(); modes.div_ceil(LANES)] }
+    pub fn new(modes: usize, max_samples: usize) -> ContactScratch {
+        ContactScratch { chunks: vec![Chunk::default(); modes.div_ceil(LANES)], impulses: vec![0.0; max_samples] }
     }
 }
 
@@ -117,8 +124,10 @@ fn pass<const OUT: bool, const CENTRE: bool>(
     gain: &[Lane],
     centre: &[Lane],
     imp: f32,
-) -> (f32, f32, f32) {
+    rise: f32,
+) -> (f32, f32, f32, f32) {
     let (mut at, mut out, mut mid) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+    let mut stretched = [0.0f32; LANES];
     let n = q.len();
     let (v, chunks) = (&mut v[..n], &chunks[..n]);
     let gain = if OUT { &gain[..n] } else { &[][..] };
@@ -126,11 +135,12 @@ fn pass<const OUT: bool, const CENTRE: bool>(
     for i in 0..n {
         let (qi, vi, k) = (&mut q[i], &mut v[i], &chunks[i]);
         for l in 0..LANES {
-            let y = vi[l] + imp * k.kick[l];
+            let y = vi[l] + imp * k.kick[l] - rise * k.tension[l] * qi[l];
             let x = k.c[l] * qi[l] + k.s[l] * y;
             vi[l] = k.c[l] * y - k.s[l] * qi[l];
             qi[l] = x;
             at[l] += k.phi[l] * x;
+            stretched[l] += k.stretch[l] * x * x;
             if OUT {
                 out[l] += gain[i][l] * x;
             }
@@ -140,7 +150,7 @@ fn pass<const OUT: bool, const CENTRE: bool>(
         }
     }
     let sum = |a: [f32; LANES]| a.iter().sum::<f32>();
-    (sum(at), sum(out), sum(mid))
+    (sum(at), sum(out), sum(mid), sum(stretched))
 }
 
 /// Run one contact from the current modal state. Writes the output sample and the centre
@@ -156,42 +166,86 @@ pub fn run_contact(
     centre: &mut [f32],
 ) -> (usize, ContactReport) {
     let t = 1.0 / sample_rate_hz;
-    let (q, v_modes) = (state.q, state.v);
-    let chunks = &mut scratch.chunks[..q.len()];
-    // Mode shapes at the strike point, and the surface's mobility there: 1 / m_eff = sum phi^2 / M.
+    let (q_all, v_all) = (state.q, state.v);
+    let chunks_all = &mut scratch.chunks[..q_all.len()];
+    // Mode shapes at the strike point. The modes that move with the striker give the
+    // surface's mobility there, 1 / m_eff = sum phi^2 / M; the ones above give only as a
+    // spring, compliance sum phi^2 / (M w^2) (each thinned mode for those it stands for).
+    let split = modes.contact_modes.min(modes.modes.len());
+    let dynamic = split.div_ceil(LANES);
     let mut inv_mass = 0.0;
+    let mut compliance = 0.0;
     modes.shapes_at(strike.x_m, strike.y_m, |k, phi| {
-        chunks[k / LANES].phi[k % LANES] = phi as f32;
-        inv_mass += phi * phi / modes.modes[k].mass_kg;
+        chunks_all[k / LANES].phi[k % LANES] = phi as f32;
+        let mode = &modes.modes[k];
+        if k < split {
+            inv_mass += phi * phi / mode.mass_kg;
+        } else {
+            let w0 = 2.0 * std::f64::consts::PI * mode.freq_hz;
+            compliance += mode.stands_for * phi * phi / (mode.mass_kg * w0 * w0);
+        }
     });
     // Sub-steps: resolve both the contact's duration and the stiff local oscillation of the
     // striker against the surface's effective mass at its deepest compression (w h <= 1; the
     // leapfrog is stable to w h < 2 and its energy error stays bounded, but at w h = 1.5 a tom's
     // peak force is already 20 % off the converged value). A soft kick needs only one.
+    // The residual spring in series softens the contact: both estimates use the pair.
     let c_max = max_compression_m(strike);
-    let k_lin = strike.alpha * strike.k * c_max.powf(strike.alpha - 1.0);
+    let k_hertz = strike.alpha * strike.k * c_max.powf(strike.alpha - 1.0);
+    let k_lin = 1.0 / (1.0 / k_hertz + compliance);
     let w_local = (k_lin * (inv_mass + 1.0 / strike.mass_kg)).sqrt();
-    let by_duration = 30.0 * t / rigid_contact_time_s(strike);
+    let softened = (k_hertz / k_lin).sqrt();
+    let by_duration = 30.0 * t / (rigid_contact_time_s(strike) * softened);
     let substeps = (by_duration.max(t * w_local).ceil() as usize).clamp(1, 64);
     let h = t / substeps as f64;
     for (k, mode) in modes.modes.iter().enumerate() {
         let w0 = 2.0 * std::f64::consts::PI * mode.freq_hz;
-        let (c, s) = rotation(w0, state.sigma[k], h);
+        // The modes above the split advance a whole sample at a time, after the contact.
+        let step = if k < split { h } else { t };
+        let (c, s) = rotation(w0, state.sigma[k], step);
         let wd = damped(w0, state.sigma[k]).1;
-        let (chunk, l) = (&mut chunks[k / LANES], k % LANES);
+        let (chunk, l) = (&mut chunks_all[k / LANES], k % LANES);
         let kick = chunk.phi[l] as f64 / mode.mass_kg / wd;
         (chunk.c[l], chunk.s[l], chunk.kick[l]) = (c as f32, s as f32, kick as f32);
+        chunk.tension[l] = (w0 * w0 / wd * step) as f32;
+        chunk.stretch[l] = (modes.stretch * mode.mass_kg * w0 * w0) as f32;
     }
-    let (gain, centre_weight) = (state.out_gain, state.centre_weight.unwrap_or(&[]));
+    let (q, v_modes) = (&mut q_all[..dynamic], &mut v_all[..dynamic]);
+    let chunks = &chunks_all[..dynamic];
+    let (gain_all, centre_all) = (state.out_gain, state.centre_weight.unwrap_or(&[]));
+    let gain = &gain_all[..dynamic];
+    let centre_weight = if centre_all.is_empty() { centre_all } else { &centre_all[..dynamic] };
     // Hertz exponents are usually half-integers (3/2 for a sphere on a plane): then c^alpha is
     // a power of sqrt(c), much cheaper than powf.
     let half_steps = (2.0 * strike.alpha).round();
     let sqrt_power =
         (half_steps == 2.0 * strike.alpha && (1.0..=8.0).contains(&half_steps)).then_some(half_steps as i32);
-    let force_of = |c: f64| match (c > 0.0, sqrt_power) {
+    let hertz = |c: f64| match (c > 0.0, sqrt_power) {
         (false, _) => 0.0,
         (true, Some(n)) => strike.k * c.sqrt().powi(n),
         (true, None) => strike.k * c.powf(strike.alpha),
+    };
+    // The Hertz spring in series with the residual spring: the approach c splits into the
+    // Hertz compression x and the residual give C F, x + C k x^alpha = c (Newton in x; the
+    // left side is convex and increasing, so from above it converges monotonically).
+    let force_of = |c: f64| {
+        if c <= 0.0 || compliance <= 0.0 {
+            return hertz(c);
+        }
+        let ck = compliance * strike.k;
+        let mut x = c.min((c / ck).powf(1.0 / strike.alpha));
+        for _ in 0..8 {
+            let xa = hertz(x) / strike.k;
+            let f = x + ck * xa - c;
+            let df = 1.0 + strike.alpha * ck * xa / x.max(1e-30);
+            let next = (x - f / df).max(0.0);
+            if (next - x).abs() <= 1e-9 * c {
+                x = next;
+                break;
+            }
+            x = next;
+        }
+        hertz(x)
     };
     // Striker: u is its position into the surface (rest plane at 0), v its speed into it.
     let mut u = {
@@ -211,20 +265,30 @@ pub fn run_contact(
     // Leapfrog form of the splitting: the closing half kick of one sub-step and the opening
     // half kick of the next are applied together, fused into the modes' free-flight pass.
     let mut impulse = 0.0;
+    // Tension modulation: the head's tension rises with its stretch, sum of the modes'
+    // shares (1 + rise times the rest tension); the sum is of the modes that move with the
+    // striker, the last sub-step's.
+    let mut rise = 0.0f32;
+    let impulses = &mut scratch.impulses;
     while written < max_samples {
         let mut touching = false;
+        let mut sample_impulse = 0.0;
         for step in 1..=substeps {
+            sample_impulse += impulse;
             v -= impulse / strike.mass_kg;
             u += v * h;
             let imp = impulse as f32;
             let at = if step < substeps {
-                pass::<false, false>(q, v_modes, chunks, gain, centre_weight, imp).0
+                let (at, _, _, stretched) = pass::<false, false>(q, v_modes, chunks, gain, centre_weight, imp, rise);
+                rise = stretched;
+                at
             } else {
-                let (at, o, mid) = if centre_weight.is_empty() {
-                    pass::<true, false>(q, v_modes, chunks, gain, centre_weight, imp)
+                let (at, o, mid, stretched) = if centre_weight.is_empty() {
+                    pass::<true, false>(q, v_modes, chunks, gain, centre_weight, imp, rise)
                 } else {
-                    pass::<true, true>(q, v_modes, chunks, gain, centre_weight, imp)
+                    pass::<true, true>(q, v_modes, chunks, gain, centre_weight, imp, rise)
                 };
+                rise = stretched;
                 (out[written], centre[written]) = (o, mid);
                 at
             };
@@ -239,6 +303,7 @@ pub fn run_contact(
                 report.peak_force_n = report.peak_force_n.max(force);
             }
         }
+        impulses[written] = sample_impulse as f32;
         written += 1;
         if !touching && v < 0.0 && c < 0.0 {
             break;
@@ -250,6 +315,23 @@ pub fn run_contact(
     for (vi, k) in v_modes.iter_mut().zip(chunks.iter()) {
         for (v, kick) in vi.iter_mut().zip(k.kick) {
             *v += half * kick;
+        }
+    }
+    // The modes above the split, rung by the force they felt, a sample at a time: their
+    // output (and centre displacement) adds to what the contact wrote.
+    if dynamic < q_all.len() {
+        impulses[written - 1] += 0.5 * impulse as f32;
+        let (q, v) = (&mut q_all[dynamic..], &mut v_all[dynamic..]);
+        let high = &chunks_all[dynamic..];
+        let gain = &gain_all[dynamic..];
+        for (n, imp) in impulses[..written].iter().enumerate() {
+            let (_, o, mid, _) = if centre_all.is_empty() {
+                pass::<true, false>(q, v, high, gain, &[], *imp, 0.0)
+            } else {
+                pass::<true, true>(q, v, high, gain, &centre_all[dynamic..], *imp, 0.0)
+            };
+            out[n] += o;
+            centre[n] += mid;
         }
     }
     report.rebound_mps = -v;

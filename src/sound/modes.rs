@@ -29,6 +29,9 @@ pub struct Mode {
     pub mass_kg: f64,
     /// Gain from modal displacement (m) to output, including the pickup and radiation.
     pub out_gain: f64,
+    /// How many modes of the piece this one stands for (1, or the stride where a dense band
+    /// is thinned: its energy and its share of the head's give at the contact count for all).
+    pub stands_for: f64,
 }
 
 /// The modes of one piece, lowest frequency first.
@@ -37,7 +40,34 @@ pub struct ModeSet {
     pub modes: Vec<Mode>,
     pub radius_m: f64,
     pub kind: PieceKind,
+    /// The first `contact_modes` modes (a multiple of the bank's lane width, or all) move
+    /// with the striker during a contact; the ones above are far above anything a 1-10 ms
+    /// contact excites, so at the contact they only give as a static spring (residual
+    /// compliance) and are rung afterwards by the contact force they felt.
+    pub contact_modes: usize,
+    /// Tension modulation: the relative rise of a membrane's tension per unit of
+    /// sum M w^2 q^2 over its modes (0 for plates, or for an ideal membrane). A stretched
+    /// head is tauter: a hard hit starts sharp, falls in pitch and leaves the stick sooner.
+    pub stretch: f64,
+    /// J_m(x) for every order the modes have, tabulated every [`BESSEL_STEP`] in x up to the
+    /// largest radial wavenumber (row m starts at m * `bessel_len`), so a strike finds a
+    /// thousand mode shapes without evaluating a Bessel function.
+    bessel: Vec<f32>,
+    bessel_len: usize,
 }
+
+/// Table step in x: linear interpolation errs by at most BESSEL_STEP^2 / 8 (|J''| <= 1).
+const BESSEL_STEP: f64 = 1.0 / 16.0;
+
+/// Young's modulus over density of polyester film (Mylar), m^2/s^2: E h from a head's areal
+/// density.
+const MYLAR_E_OVER_RHO: f64 = 4.5e9 / 1390.0;
+/// Poisson's ratio of polyester film.
+const MYLAR_POISSON: f64 = 0.38;
+
+/// Lowest oscillators of a membrane kept one by one (every mode, each moving with the
+/// striker); above them a dense band is thinned to fit `max_modes`.
+const MEMBRANE_EXACT_MODES: usize = 320;
 
 /// Where the sound is picked up: a point over the surface (fraction of radius, angle).
 const PICKUP_RHO: f64 = 0.68;
@@ -64,7 +94,38 @@ impl ModeSet {
             let pickup = shape(mode, PICKUP_RHO, PICKUP_THETA);
             mode.out_gain *= level * radiation * pickup * 2.0 * PI * mode.freq_hz;
         }
-        ModeSet { modes, radius_m: piece.radius_m as f64, kind: piece.kind }
+        let contact_modes = match piece.kind {
+            PieceKind::Membrane => MEMBRANE_EXACT_MODES.min(modes.len()),
+            PieceKind::Plate => modes.len(),
+        };
+        // Berger's approximation: the mean in-plane strain of a head displaced w is
+        // (1 / 2A) integral |grad w|^2, and integral |grad w|^2 = sum M w^2 q^2 / T0, so the
+        // tension rises by E h / (1 - nu) times the strain: relative rise
+        // E h / (2 A (1 - nu) T0^2) sum M w^2 q^2.
+        let stretch = match piece.kind {
+            PieceKind::Membrane => {
+                const J01: f64 = 2.404_825_557_695_773;
+                let a = piece.radius_m as f64;
+                let sigma = piece.areal_density_kg_m2 as f64;
+                let c = 2.0 * PI * a * piece.fundamental_hz as f64 / J01;
+                let t0 = sigma * c * c;
+                let eh = MYLAR_E_OVER_RHO * sigma;
+                piece.tension_modulation as f64 * eh / (2.0 * PI * a * a * (1.0 - MYLAR_POISSON) * t0 * t0)
+            }
+            PieceKind::Plate => 0.0,
+        };
+        let m_max = modes.iter().map(|m| m.m).max().unwrap_or(0);
+        let x_max = modes.iter().map(|m| m.zero).fold(0.0, f64::max);
+        let bessel_len = (x_max / BESSEL_STEP).ceil() as usize + 2;
+        let mut bessel = vec![0.0f32; (m_max + 1) * bessel_len];
+        let mut row = vec![0.0; m_max + 1];
+        for i in 0..bessel_len {
+            super::bessel::bessel_j_all(i as f64 * BESSEL_STEP, &mut row);
+            for (m, j) in row.iter().enumerate() {
+                bessel[m * bessel_len + i] = *j as f32;
+            }
+        }
+        ModeSet { modes, radius_m: piece.radius_m as f64, kind: piece.kind, contact_modes, stretch, bessel, bessel_len }
     }
 
     /// Mode shape of mode `k` at the point (x, y) metres from the centre; 0 outside the surface.
@@ -77,23 +138,37 @@ impl ModeSet {
     }
 
     /// Every mode's shape at the point (x, y), in mode order, handed to `f(k, shape)`; 0
-    /// outside the surface. The same values as [`ModeSet::shape_at`], with the angle found
-    /// once and the radial factor shared by the cos and sin twins of a pair.
+    /// outside the surface. [`ModeSet::shape_at`]'s values, the radial factor interpolated
+    /// in its table and cos(m theta), sin(m theta) by the angle-addition recurrence.
     pub fn shapes_at(&self, x_m: f64, y_m: f64, mut f: impl FnMut(usize, f64)) {
         let rho = (x_m * x_m + y_m * y_m).sqrt() / self.radius_m;
-        let theta = y_m.atan2(x_m);
-        let mut last: Option<(usize, f64, f64)> = None;
+        if rho > 1.0 {
+            (0..self.modes.len()).for_each(|k| f(k, 0.0));
+            return;
+        }
+        let (s1, c1) = y_m.atan2(x_m).sin_cos();
+        // (cos m theta, sin m theta) for m = 0, 1, 2, ... as the modes ask for them.
+        let (mut m_now, mut cm, mut sm) = (0usize, 1.0f64, 0.0f64);
         for (k, mode) in self.modes.iter().enumerate() {
-            if rho > 1.0 {
-                f(k, 0.0);
-                continue;
+            if mode.m < m_now {
+                (m_now, cm, sm) = (0, 1.0, 0.0);
             }
-            let radial = match last {
-                Some((m, zero, radial)) if m == mode.m && zero == mode.zero => radial,
-                _ => bessel_j(mode.m, mode.zero * rho),
+            while m_now < mode.m {
+                (cm, sm) = (cm * c1 - sm * s1, sm * c1 + cm * s1);
+                m_now += 1;
+            }
+            let pos = mode.zero * rho / BESSEL_STEP;
+            let i = (pos as usize).min(self.bessel_len - 2);
+            let t = &self.bessel[mode.m * self.bessel_len + i..mode.m * self.bessel_len + i + 2];
+            let radial = t[0] as f64 + (pos - i as f64) * (t[1] as f64 - t[0] as f64);
+            let angular = if mode.m == 0 {
+                1.0
+            } else if mode.sin {
+                sm
+            } else {
+                cm
             };
-            last = Some((mode.m, mode.zero, radial));
-            f(k, radial * angular(mode, theta));
+            f(k, radial * angular);
         }
     }
 }
@@ -130,22 +205,65 @@ fn push_twins(out: &mut Vec<Mode>, mode: Mode, max: usize) {
 
 fn membrane_modes(piece: &Piece) -> Vec<Mode> {
     const J01: f64 = 2.404_825_557_695_773;
-    let max = piece.max_modes;
-    let j_by_hz = J01 * piece.max_hz as f64 / piece.fundamental_hz as f64;
-    // Weyl's law: about j^2 / 4 oscillators below j; search a little beyond what max needs.
-    let j_max = j_by_hz.min((4.0 * max as f64).sqrt() * 1.25 + 6.0);
+    // Every mode up to max_hz: Weyl's law gives about j^2 / 4 oscillators below j.
+    let j_max = J01 * piece.max_hz as f64 / piece.fundamental_hz as f64;
     let mut found = zeros_where(ZeroKind::Value, j_max as usize + 1, j_max, |_, _| true);
     found.sort_by(|a, b| a.2.total_cmp(&b.2));
-    let mut modes = Vec::new();
     let (rho_s, a) = (piece.areal_density_kg_m2 as f64, piece.radius_m as f64);
+    let mut all = Vec::new();
     for (m, n, j) in found {
         let freq_hz = piece.fundamental_hz as f64 * j / J01;
         let angular = if m == 0 { 2.0 * PI } else { PI };
         let mass_kg = rho_s * a * a * angular * 0.5 * bessel_j(m + 1, j).powi(2);
-        let mode =
-            Mode { m, n, sin: false, zero: j, freq_hz, sigma: decay_rate(piece, freq_hz), mass_kg, out_gain: 1.0 };
-        push_twins(&mut modes, mode, max);
+        let mode = Mode {
+            m,
+            n,
+            sin: false,
+            zero: j,
+            freq_hz,
+            sigma: decay_rate(piece, freq_hz),
+            mass_kg,
+            out_gain: 1.0,
+            stands_for: 1.0,
+        };
+        push_twins(&mut all, mode, usize::MAX);
     }
+    // The lowest oscillators one by one; above them every `stride`-th (pairs kept whole),
+    // each standing for the modes beside it, so the band up to max_hz stays covered.
+    let max = piece.max_modes.max(1);
+    let exact = MEMBRANE_EXACT_MODES.min(max).min(all.len());
+    let rest = all.len() - exact;
+    let room = max - exact;
+    if rest <= room {
+        return all;
+    }
+    let mut modes: Vec<Mode> = all[..exact].to_vec();
+    if room == 0 {
+        return modes;
+    }
+    // The oscillators kept with a given stride: every `stride`-th, a cos twin with its sin.
+    let pick = |stride: usize| {
+        let mut kept = Vec::new();
+        let mut i = exact;
+        while i < all.len() {
+            let group = if all[i].m > 0 && i + 1 < all.len() && all[i + 1].sin { 2 } else { 1 };
+            kept.extend(i..i + group);
+            i += stride.max(group);
+            if i < all.len() && all[i].sin {
+                i += 1;
+            }
+        }
+        kept
+    };
+    let mut stride = rest.div_ceil(room).max(1);
+    let mut kept = pick(stride);
+    while kept.len() > room {
+        stride += 1;
+        kept = pick(stride);
+    }
+    // Each kept oscillator stands for its share of the band it covers.
+    let share = rest as f64 / kept.len() as f64;
+    modes.extend(kept.into_iter().map(|i| Mode { out_gain: share.sqrt(), stands_for: share, ..all[i] }));
     modes
 }
 
@@ -208,6 +326,7 @@ fn plate_modes(piece: &Piece) -> Vec<Mode> {
             sigma: decay_rate(piece, freq_hz),
             mass_kg,
             out_gain: (stride as f64).sqrt(),
+            stands_for: stride as f64,
         };
         push_twins(&mut modes, mode, usize::MAX);
     }
@@ -237,7 +356,10 @@ mod tests {
             for (x, y) in [(0.0, 0.0), (0.03, -0.05), (-0.1, 0.02), (0.5, 0.5)] {
                 let mut n = 0;
                 set.shapes_at(x, y, |k, phi| {
-                    assert_eq!(phi, set.shape_at(k, x, y), "{id} mode {k} at ({x}, {y})");
+                    // The table's interpolation error bound, plus f32 rounding.
+                    let tol = BESSEL_STEP * BESSEL_STEP / 8.0 + 1e-6;
+                    let exact = set.shape_at(k, x, y);
+                    assert!((phi - exact).abs() <= tol, "{id} mode {k} at ({x}, {y}): {phi} vs {exact}");
                     n += 1;
                 });
                 assert_eq!(n, set.modes.len());

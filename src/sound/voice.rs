@@ -71,7 +71,7 @@ impl Voice {
             sigma: vec![0.0; n],
             q: vec![[0.0; LANES]; n.div_ceil(LANES)],
             v: vec![[0.0; LANES]; n.div_ceil(LANES)],
-            scratch: ContactScratch::new(n),
+            scratch: ContactScratch::new(n, contact_cap),
             pending_out: vec![0.0; contact_cap],
             pending_centre: vec![0.0; contact_cap],
             pending_len: 0,
