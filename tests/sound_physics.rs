@@ -19,7 +19,7 @@ fn ideal_membrane() -> Piece {
         decay_s: 4.0,
         damping_exponent: 0.3,
         wires: None,
-        tension_modulation: 0.0,
+        stretch: 0.0,
         ..piece("tom1")
     }
 }

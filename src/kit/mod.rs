@@ -46,9 +46,10 @@ pub struct Piece {
     pub areal_density_kg_m2: f32,
     pub max_hz: f32,
     pub max_modes: usize,
-    /// Membranes: how much the head's tension rises with its stretch, as a multiple of a
-    /// polyester film's (1.0); 0 is an ideal linear membrane.
-    pub tension_modulation: f32,
+    /// How much the surface stiffens as it stretches under large motion (Berger's
+    /// approximation), as a multiple of its material's: polyester film for a membrane, B20
+    /// bronze for a plate (1.0); 0 is linear (an ideal membrane, a gong-like plate).
+    pub stretch: f32,
     /// Plates: f ~ (m + 2n)^chladni_exponent.
     pub chladni_exponent: f32,
     /// Hertz contact F = k c^alpha for hardness 1.0.

@@ -22,6 +22,8 @@ struct RawKit {
 
 /// Oscillators per piece when the kit does not say: membranes, plates.
 const DEFAULT_MAX_MODES: [usize; 2] = [1024, 256];
+/// `stretch` when the kit does not say: membranes, plates.
+const DEFAULT_STRETCH: [f32; 2] = [1.0, 0.0];
 
 /// Exactly three numbers: serde's arrays let a fourth through unseen.
 fn three<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
@@ -58,7 +60,7 @@ struct RawPiece {
     areal_density_kg_m2: f32,
     max_hz: f32,
     max_modes: Option<usize>,
-    tension_modulation: Option<f32>,
+    stretch: Option<f32>,
     chladni_exponent: Option<f32>,
     hertz_k: f32,
     hertz_alpha: f32,
@@ -225,7 +227,8 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Kit, KitError> {
                 1.0,
                 8192.0,
             )? as usize,
-            tension_modulation: c.range(&key("tension_modulation"), p.tension_modulation.unwrap_or(1.0), 0.0, 10.0)?,
+            // Heads stretch as polyester film does; plates are linear unless the kit says.
+            stretch: c.range(&key("stretch"), p.stretch.unwrap_or(DEFAULT_STRETCH[kind as usize]), 0.0, 1000.0)?,
             chladni_exponent: c.range(&key("chladni_exponent"), p.chladni_exponent.unwrap_or(1.4), 1.0, 2.5)?,
             hertz_k: c.range(&key("hertz_k"), p.hertz_k, 1e4, 1e12)?,
             hertz_alpha: c.range(&key("hertz_alpha"), p.hertz_alpha, 1.0, 4.0)?,

@@ -29,7 +29,24 @@ pub struct Bank {
     /// Samples rendered so far: chunks may fall asleep only at multiples of [`SLEEP_CHECK`],
     /// so the output does not depend on how the caller splits it into blocks.
     clock: u64,
+    /// The stretch nonlinearity (see [`super::modes::ModeSet::stretch`]): each mode's share
+    /// of the stretch per squared displacement, and the change of its next displacement per
+    /// unit of stretch and of its displacement. Empty when the piece is linear.
+    stretch_w: Vec<Lane>,
+    stretch_c: Vec<Lane>,
+    /// The stretch now, and whether it is large enough to run the coupled recursion.
+    stretch: f32,
+    coupled: bool,
+    /// The largest stretch the recursion stays stable at, the stretch below which the modes
+    /// run uncoupled, and how many chunks (from the lowest) the stretch couples.
+    max_stretch: f32,
+    stretch_off: f32,
+    coupled_chunks: usize,
 }
+
+/// The modes run uncoupled once the stretch stiffens them by less than this (a frequency
+/// shift of 50 parts per million).
+const STRETCH_OFF: f64 = 1e-4;
 
 /// Chunks run side by side in the inner loop.
 const GROUP: usize = 2;
@@ -59,7 +76,53 @@ impl Bank {
             centre,
             modes: gains.len(),
             clock: 0,
+            stretch_w: Vec::new(),
+            stretch_c: Vec::new(),
+            stretch: 0.0,
+            coupled: false,
+            max_stretch: 0.0,
+            stretch_off: 0.0,
+            coupled_chunks: 0,
         }
+    }
+
+    /// Make the bank nonlinear: mode k adds `w[k] y_k^2` to the stretch s, and each sample
+    /// its next displacement loses `s c[k] y_k`; s is held at or below `max`. Only the
+    /// lowest `modes` modes take part (those above ring out too fast to matter); `stiffness`
+    /// is the stretch that would double the stiffest-coupled mode's stiffness (the
+    /// coupling stops below [`STRETCH_OFF`] of it).
+    pub fn set_stretch(&mut self, w: &[f32], c: &[f32], max: f32, modes: usize, stiffness: f64) {
+        self.max_stretch = max;
+        self.stretch_off = (STRETCH_OFF * stiffness) as f32;
+        self.coupled_chunks = modes.div_ceil(LANES).min(self.gain.len());
+        let lanes = |v: &[f32]| {
+            let mut out = vec![[0.0; LANES]; self.gain.len()];
+            for (k, x) in v.iter().enumerate() {
+                out[k / LANES][k % LANES] = *x;
+            }
+            out
+        };
+        (self.stretch_w, self.stretch_c) = (lanes(w), lanes(c));
+    }
+
+    /// After the state was set (a strike): recompute the stretch and run coupled if it matters.
+    pub fn wake_stretch(&mut self) {
+        if self.stretch_w.is_empty() {
+            return;
+        }
+        let mut s = 0.0;
+        for (c, w) in self.stretch_w.iter().enumerate().take(self.coupled_chunks) {
+            for l in 0..LANES {
+                s += w[l] * self.y1[c][l] * self.y1[c][l];
+            }
+        }
+        self.stretch = s.min(self.max_stretch);
+        self.coupled = s > self.stretch_off;
+    }
+
+    /// True while the modes run coupled through the stretch.
+    pub fn is_coupled(&self) -> bool {
+        self.coupled
     }
 
     pub fn modes(&self) -> usize {
@@ -100,7 +163,12 @@ impl Bank {
         while i < out.len() {
             let to_check = (SLEEP_CHECK - self.clock % SLEEP_CHECK) as usize;
             let end = out.len().min(i + to_check);
-            self.process_segment(&mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]), acc);
+            if self.coupled {
+                self.process_coupled(&mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]));
+                self.process_segment(&mut out[i..end], None, acc, self.coupled_chunks);
+            } else {
+                self.process_segment(&mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]), acc, 0);
+            }
             self.clock += (end - i) as u64;
             if self.clock.is_multiple_of(SLEEP_CHECK) {
                 for c in 0..self.active.len() {
@@ -113,11 +181,12 @@ impl Bank {
         }
     }
 
-    fn process_segment(&mut self, out: &mut [f32], centre: Option<&mut [f32]>, acc: &mut [Lane]) {
+    /// Add the chunks from `from` on over `out.len()` samples into `out`.
+    fn process_segment(&mut self, out: &mut [f32], centre: Option<&mut [f32]>, acc: &mut [Lane], from: usize) {
         let n = out.len();
         let acc = &mut acc[..n];
         acc.fill([0.0; LANES]);
-        let mut first = 0;
+        let mut first = from;
         if let Some(centre) = centre {
             let centre = &mut centre[..n];
             centre.fill(0.0);
@@ -169,6 +238,48 @@ impl Bank {
         for (j, &c) in idx.iter().enumerate() {
             self.y1[c] = y1[j];
             self.y2[c] = y2[j];
+        }
+    }
+
+    /// The modes coupled through the stretch, a sample at a time over every ringing chunk
+    /// (the stretch of one sample pulls on the next); back to [`Bank::process_segment`] once
+    /// the stretch has fallen below [`STRETCH_OFF`] for a whole segment.
+    fn process_coupled(&mut self, out: &mut [f32], mut centre: Option<&mut [f32]>) {
+        let mut stretch = self.stretch;
+        let mut most = 0.0f32;
+        for (s, o) in out.iter_mut().enumerate() {
+            let mut acc = [0.0f32; LANES];
+            let mut next = [0.0f32; LANES];
+            let mut mid = 0.0f32;
+            for c in 0..self.coupled_chunks {
+                if !self.active[c] {
+                    continue;
+                }
+                let (a1, a2, g) = (&self.a1[c], &self.a2[c], &self.gain[c]);
+                let (w, k) = (&self.stretch_w[c], &self.stretch_c[c]);
+                let (y1, y2) = (&mut self.y1[c], &mut self.y2[c]);
+                let mut y = [0.0f32; LANES];
+                for l in 0..LANES {
+                    y[l] = a1[l] * y1[l] - a2[l] * y2[l] - stretch * k[l] * y1[l];
+                    acc[l] += g[l] * y[l];
+                    next[l] += w[l] * y[l] * y[l];
+                }
+                *y2 = *y1;
+                *y1 = y;
+                if c == 0 && centre.is_some() {
+                    mid = (0..LANES).map(|l| self.centre[l] * y[l]).sum();
+                }
+            }
+            *o += acc.iter().sum::<f32>();
+            if let Some(centre) = centre.as_deref_mut() {
+                centre[s] = mid;
+            }
+            stretch = next.iter().sum::<f32>().min(self.max_stretch);
+            most = most.max(stretch);
+        }
+        self.stretch = stretch;
+        if most < self.stretch_off {
+            self.coupled = false;
         }
     }
 

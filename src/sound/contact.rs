@@ -65,6 +65,8 @@ pub struct ModalState<'a> {
     pub out_gain: &'a [Lane],
     /// Weights of the displacement at the centre (for snare wires); `None` writes zeros.
     pub centre_weight: Option<&'a [Lane]>,
+    /// The largest stretch ([`ModeSet::stretch`]) the surface takes.
+    pub max_stretch: f32,
 }
 
 /// Eight modes' coefficients for one contact: free flight over one sub-step as the damped
@@ -76,10 +78,10 @@ struct Chunk {
     s: Lane,
     kick: Lane,
     phi: Lane,
-    /// Change of v per unit of tension rise and of q over one sub-step (w0^2 / wd h).
+    /// Change of v per unit of stretch and of q over one sub-step (slope2 h / (M wd)).
     tension: Lane,
-    /// The mode's share of the tension rise per squared displacement ([`ModeSet::stretch`]
-    /// times M w0^2).
+    /// The mode's share of the stretch per squared displacement ([`ModeSet::stretch`]
+    /// times slope2).
     stretch: Lane,
 }
 
@@ -207,8 +209,8 @@ pub fn run_contact(
         let (chunk, l) = (&mut chunks_all[k / LANES], k % LANES);
         let kick = chunk.phi[l] as f64 / mode.mass_kg / wd;
         (chunk.c[l], chunk.s[l], chunk.kick[l]) = (c as f32, s as f32, kick as f32);
-        chunk.tension[l] = (w0 * w0 / wd * step) as f32;
-        chunk.stretch[l] = (modes.stretch * mode.mass_kg * w0 * w0) as f32;
+        chunk.tension[l] = (mode.slope2 / mode.mass_kg / wd * step) as f32;
+        chunk.stretch[l] = (modes.stretch * mode.slope2) as f32;
     }
     let (q, v_modes) = (&mut q_all[..dynamic], &mut v_all[..dynamic]);
     let chunks = &chunks_all[..dynamic];
@@ -280,7 +282,7 @@ pub fn run_contact(
             let imp = impulse as f32;
             let at = if step < substeps {
                 let (at, _, _, stretched) = pass::<false, false>(q, v_modes, chunks, gain, centre_weight, imp, rise);
-                rise = stretched;
+                rise = stretched.min(state.max_stretch);
                 at
             } else {
                 let (at, o, mid, stretched) = if centre_weight.is_empty() {
@@ -288,7 +290,7 @@ pub fn run_contact(
                 } else {
                     pass::<true, true>(q, v_modes, chunks, gain, centre_weight, imp, rise)
                 };
-                rise = stretched;
+                rise = stretched.min(state.max_stretch);
                 (out[written], centre[written]) = (o, mid);
                 at
             };

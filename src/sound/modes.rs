@@ -32,6 +32,9 @@ pub struct Mode {
     /// How many modes of the piece this one stands for (1, or the stride where a dense band
     /// is thinned: its energy and its share of the head's give at the contact count for all).
     pub stands_for: f64,
+    /// Integral of the squared slope of the mode shape over the surface, m^2 (the mode's
+    /// share of the in-plane stretch per squared displacement, [`ModeSet::stretch`]).
+    pub slope2: f64,
 }
 
 /// The modes of one piece, lowest frequency first.
@@ -45,9 +48,12 @@ pub struct ModeSet {
     /// contact excites, so at the contact they only give as a static spring (residual
     /// compliance) and are rung afterwards by the contact force they felt.
     pub contact_modes: usize,
-    /// Tension modulation: the relative rise of a membrane's tension per unit of
-    /// sum M w^2 q^2 over its modes (0 for plates, or for an ideal membrane). A stretched
-    /// head is tauter: a hard hit starts sharp, falls in pitch and leaves the stick sooner.
+    /// The surface's stretch under large motion (Berger's approximation: the in-plane strain
+    /// is its mean, (1 / 2A) integral |grad w|^2 = (1 / 2A) sum slope2_k q_k^2). The stretch
+    /// energy is stretch / 4 (sum slope2 q^2)^2 and pulls mode k back with
+    /// stretch (sum slope2 q^2) slope2_k q_k: a membrane's tension rises (a hard hit starts
+    /// sharp, falls in pitch and leaves the stick sooner); a cymbal's modes trade energy
+    /// (its wash). 0: linear.
     pub stretch: f64,
     /// J_m(x) for every order the modes have, tabulated every [`BESSEL_STEP`] in x up to the
     /// largest radial wavenumber (row m starts at m * `bessel_len`), so a strike finds a
@@ -64,6 +70,9 @@ const BESSEL_STEP: f64 = 1.0 / 16.0;
 const MYLAR_E_OVER_RHO: f64 = 4.5e9 / 1390.0;
 /// Poisson's ratio of polyester film.
 const MYLAR_POISSON: f64 = 0.38;
+/// The same for cymbal bronze (B20).
+const BRONZE_E_OVER_RHO: f64 = 110e9 / 8600.0;
+const BRONZE_POISSON: f64 = 0.34;
 
 /// Lowest oscillators of a membrane kept one by one (every mode, each moving with the
 /// striker); above them a dense band is thinned to fit `max_modes`.
@@ -79,7 +88,27 @@ pub const MEMBRANE_OUTPUT_SCALE: f64 = 0.012;
 pub const PLATE_OUTPUT_SCALE: f64 = 0.32;
 
 impl ModeSet {
+    /// The modes of `piece`. Finding a thousand Bessel zeros takes milliseconds, so the
+    /// sets of the last pieces asked for are kept (a render, an audition of many hits, or a
+    /// test makes engines for the same kit over and over).
     pub fn for_piece(piece: &Piece) -> ModeSet {
+        use std::sync::{Arc, Mutex};
+        static KEPT: Mutex<Vec<(String, Arc<ModeSet>)>> = Mutex::new(Vec::new());
+        const KEEP: usize = 32;
+        let key = format!("{piece:?}");
+        if let Some((_, set)) = KEPT.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(k, _)| *k == key) {
+            return ModeSet::clone(set);
+        }
+        let set = Arc::new(ModeSet::build(piece));
+        let mut kept = KEPT.lock().unwrap_or_else(|e| e.into_inner());
+        if kept.len() >= KEEP {
+            kept.remove(0);
+        }
+        kept.push((key, Arc::clone(&set)));
+        ModeSet::clone(&set)
+    }
+
+    fn build(piece: &Piece) -> ModeSet {
         let mut modes = match piece.kind {
             PieceKind::Membrane => membrane_modes(piece),
             PieceKind::Plate => plate_modes(piece),
@@ -102,18 +131,17 @@ impl ModeSet {
         // (1 / 2A) integral |grad w|^2, and integral |grad w|^2 = sum M w^2 q^2 / T0, so the
         // tension rises by E h / (1 - nu) times the strain: relative rise
         // E h / (2 A (1 - nu) T0^2) sum M w^2 q^2.
-        let stretch = match piece.kind {
-            PieceKind::Membrane => {
-                const J01: f64 = 2.404_825_557_695_773;
-                let a = piece.radius_m as f64;
-                let sigma = piece.areal_density_kg_m2 as f64;
-                let c = 2.0 * PI * a * piece.fundamental_hz as f64 / J01;
-                let t0 = sigma * c * c;
-                let eh = MYLAR_E_OVER_RHO * sigma;
-                piece.tension_modulation as f64 * eh / (2.0 * PI * a * a * (1.0 - MYLAR_POISSON) * t0 * t0)
-            }
-            PieceKind::Plate => 0.0,
+        // integral |grad phi|^2 = (zero / a)^2 integral phi^2 (exact for a fixed-edge
+        // membrane, close for the free plate's Bessel shapes), and integral phi^2 = M / rho_s.
+        let (a, rho_s) = (piece.radius_m as f64, piece.areal_density_kg_m2 as f64);
+        for mode in &mut modes {
+            mode.slope2 = (mode.zero / a).powi(2) * mode.mass_kg / rho_s;
+        }
+        let (e_over_rho, poisson) = match piece.kind {
+            PieceKind::Membrane => (MYLAR_E_OVER_RHO, MYLAR_POISSON),
+            PieceKind::Plate => (BRONZE_E_OVER_RHO, BRONZE_POISSON),
         };
+        let stretch = piece.stretch as f64 * e_over_rho * rho_s / (2.0 * PI * a * a * (1.0 - poisson));
         let m_max = modes.iter().map(|m| m.m).max().unwrap_or(0);
         let x_max = modes.iter().map(|m| m.zero).fold(0.0, f64::max);
         let bessel_len = (x_max / BESSEL_STEP).ceil() as usize + 2;
@@ -225,6 +253,7 @@ fn membrane_modes(piece: &Piece) -> Vec<Mode> {
             mass_kg,
             out_gain: 1.0,
             stands_for: 1.0,
+            slope2: 0.0,
         };
         push_twins(&mut all, mode, usize::MAX);
     }
@@ -327,6 +356,7 @@ fn plate_modes(piece: &Piece) -> Vec<Mode> {
             mass_kg,
             out_gain: (stride as f64).sqrt(),
             stands_for: stride as f64,
+            slope2: 0.0,
         };
         push_twins(&mut modes, mode, usize::MAX);
     }

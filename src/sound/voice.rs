@@ -42,6 +42,8 @@ pub struct Voice {
     openness_factor: f64,
     damping_factor: f64,
     choked: bool,
+    /// The largest stretch the modes take (see [`super::bank::Bank::set_stretch`]).
+    max_stretch: f32,
     /// What the last contact did (for tests and reports).
     pub last_contact: ContactReport,
 }
@@ -53,7 +55,38 @@ impl Voice {
         let gains: Vec<f32> = modes.modes.iter().map(|m| m.out_gain as f32).collect();
         // Displacement at the centre: only axisymmetric modes move it (J_m(0) = 0 for m > 0).
         let centre_weights: Vec<f32> = modes.modes.iter().map(|m| if m.m == 0 { 1.0 } else { 0.0 }).collect();
-        let bank = Bank::new(&gains, &centre_weights[..n.min(LANES)]);
+        let mut bank = Bank::new(&gains, &centre_weights[..n.min(LANES)]);
+        let mut max_stretch = 0.0f32;
+        if modes.stretch > 0.0 {
+            // Per sample, mode k's next displacement changes by T sin(w T) / (M w) times the
+            // force, and the stretch pulls with stretch * s * slope2_k * y_k.
+            let t = 1.0 / sample_rate_hz as f64;
+            let w: Vec<f32> = modes.modes.iter().map(|m| (modes.stretch * m.slope2) as f32).collect();
+            let c: Vec<f32> = modes
+                .modes
+                .iter()
+                .map(|m| {
+                    let w0 = 2.0 * PI * m.freq_hz;
+                    (m.slope2 * t * (w0 * t).sin() / (m.mass_kg * w0)) as f32
+                })
+                .collect();
+            // The recursion y = a1 y1 - a2 y2 - s c y1 stays stable while a1 - s c > -(1 + a2):
+            // hold s to half of what the stiffest mode allows (a head stretched past that
+            // would have torn).
+            let max = modes
+                .modes
+                .iter()
+                .zip(&c)
+                .map(|(m, c)| (1.0 + (2.0 * PI * m.freq_hz * t).cos()) / (*c as f64).max(1e-30))
+                .fold(f64::MAX, f64::min);
+            let coupled = modes.contact_modes;
+            let stiffness = modes.modes[..coupled]
+                .iter()
+                .map(|m| m.mass_kg * (2.0 * PI * m.freq_hz).powi(2) / m.slope2.max(1e-30))
+                .fold(f64::MAX, f64::min);
+            bank.set_stretch(&w, &c, max as f32, coupled, stiffness);
+            max_stretch = max as f32;
+        }
         let lanes = |v: &[f32]| {
             let mut out = vec![[0.0f32; LANES]; n.div_ceil(LANES)];
             for (k, x) in v.iter().enumerate() {
@@ -86,6 +119,7 @@ impl Voice {
             openness_factor: 1.0,
             damping_factor: f64::NAN,
             choked: false,
+            max_stretch,
             last_contact: ContactReport::default(),
             modes,
         };
@@ -179,6 +213,7 @@ impl Voice {
             sigma: &self.sigma,
             out_gain: &self.gains,
             centre_weight: self.wires.is_some().then_some(&self.centre_weights[..]),
+            max_stretch: self.max_stretch,
         };
         let (written, report) = run_contact(
             &self.modes,
@@ -199,6 +234,7 @@ impl Voice {
             let (q, v) = (self.q[k / LANES][k % LANES] as f64, self.v[k / LANES][k % LANES] as f64);
             self.bank.set_state(k, q as f32, ((q * c - v * s_) / e) as f32);
         }
+        self.bank.wake_stretch();
     }
 
     /// Mode k's displacement q and scaled velocity v = (q' + sigma q) / wd at the last rendered
