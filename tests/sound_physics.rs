@@ -14,14 +14,7 @@ fn piece(id: &str) -> Piece {
 
 /// An ideal membrane: a tom head with no wires and light damping, so partials are sharp.
 fn ideal_membrane() -> Piece {
-    Piece {
-        fundamental_hz: 200.0,
-        decay_s: 4.0,
-        damping_exponent: 0.3,
-        wires: None,
-        stretch: 0.0,
-        ..piece("tom1")
-    }
+    Piece { fundamental_hz: 200.0, decay_s: 4.0, damping_exponent: 0.3, wires: None, stretch: 0.0, ..piece("tom1") }
 }
 
 fn strike_at(x_m: f32, y_m: f32, speed_mps: f32) -> Strike {

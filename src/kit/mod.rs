@@ -23,6 +23,9 @@ pub enum PieceKind {
 pub struct Wires {
     pub gap_m: f32,
     pub gain: f32,
+    /// The rattle grows as the excursion past the gap to this power (1 mm: the same for
+    /// any power): above 1, a ghost note is mostly head and a hard hit mostly wires.
+    pub exponent: f32,
     pub decay_s: f32,
     pub center_hz: f32,
     pub q: f32,

@@ -75,6 +75,7 @@ struct RawPiece {
 struct RawWires {
     gap_m: f32,
     gain: f32,
+    exponent: Option<f32>,
     decay_s: f32,
     center_hz: f32,
     q: f32,
@@ -202,6 +203,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Kit, KitError> {
             Some(w) => Some(Wires {
                 gap_m: c.range(&key("wires.gap_m"), w.gap_m, 0.0, 0.01)?,
                 gain: c.range(&key("wires.gain"), w.gain, 0.0, 1e6)?,
+                exponent: c.range(&key("wires.exponent"), w.exponent.unwrap_or(1.0), 0.5, 4.0)?,
                 decay_s: c.range(&key("wires.decay_s"), w.decay_s, 0.005, 5.0)?,
                 center_hz: c.range(&key("wires.center_hz"), w.center_hz, 200.0, 16_000.0)?,
                 q: c.range(&key("wires.q"), w.q, 0.1, 20.0)?,

@@ -10,8 +10,12 @@ pub const LANES: usize = 8;
 /// Eight modes, one per lane.
 pub type Lane = [f32; LANES];
 
-/// A chunk sleeps when every mode's output is below this (about -120 dBFS) ...
-const SILENT_OUTPUT: f32 = 1e-6;
+/// A chunk sleeps when every mode's output is below this (-100 dBFS), or below
+/// [`BELOW_STRIKE`] of the last strike's loudest sample if that is higher ...
+const SILENT_OUTPUT: f32 = 1e-5;
+/// ... -80 dB: a tail that far under its own attack is masked by it and by anything else
+/// that plays.
+const BELOW_STRIKE: f32 = 1e-4;
 /// ... and its displacement below this (metres), so a quiet but moving head still rattles.
 const SILENT_DISPLACEMENT: f32 = 1e-8;
 
@@ -42,11 +46,15 @@ pub struct Bank {
     max_stretch: f32,
     stretch_off: f32,
     coupled_chunks: usize,
+    /// Output below which a chunk sleeps (see [`SILENT_OUTPUT`]), and whether a chunk that
+    /// still moves the surface stays awake (snare wires listen to the head's motion).
+    silent_output: f32,
+    keep_moving: bool,
 }
 
 /// The modes run uncoupled once the stretch stiffens them by less than this (a frequency
-/// shift of 50 parts per million).
-const STRETCH_OFF: f64 = 1e-4;
+/// shift of 0.05 %, well under what an ear hears as a glide).
+const STRETCH_OFF: f64 = 1e-3;
 
 /// Chunks run side by side in the inner loop.
 const GROUP: usize = 2;
@@ -83,6 +91,8 @@ impl Bank {
             max_stretch: 0.0,
             stretch_off: 0.0,
             coupled_chunks: 0,
+            silent_output: SILENT_OUTPUT,
+            keep_moving: true,
         }
     }
 
@@ -118,6 +128,17 @@ impl Bank {
         }
         self.stretch = s.min(self.max_stretch);
         self.coupled = s > self.stretch_off;
+    }
+
+    /// Whether chunks that are silent but still move the surface keep running (true unless
+    /// told: for snare wires, which rattle on the head's motion).
+    pub fn set_keep_moving(&mut self, keep: bool) {
+        self.keep_moving = keep;
+    }
+
+    /// A strike's loudest output sample was `peak`: modes may sleep [`BELOW_STRIKE`] under it.
+    pub fn set_strike_peak(&mut self, peak: f32) {
+        self.silent_output = SILENT_OUTPUT.max(peak * BELOW_STRIKE);
     }
 
     /// True while the modes run coupled through the stretch.
@@ -306,7 +327,7 @@ impl Bank {
         let (y1, y2, g) = (&self.y1[c], &self.y2[c], &self.gain[c]);
         let loud = (0..LANES).any(|l| {
             let y = y1[l].abs().max(y2[l].abs());
-            y * g[l].abs() > SILENT_OUTPUT || y > SILENT_DISPLACEMENT
+            y * g[l].abs() > self.silent_output || (self.keep_moving && y > SILENT_DISPLACEMENT)
         });
         if !loud {
             self.active[c] = false;

@@ -72,6 +72,10 @@ const MYLAR_E_OVER_RHO: f64 = 4.5e9 / 1390.0;
 const MYLAR_POISSON: f64 = 0.38;
 /// The same for cymbal bronze (B20).
 const BRONZE_E_OVER_RHO: f64 = 110e9 / 8600.0;
+const BRONZE_DENSITY: f64 = 8600.0;
+/// Longitudinal (plate) wave speed in bronze, sqrt(E / (rho (1 - nu^2))), m/s.
+const BRONZE_LONGITUDINAL_SPEED: f64 = 3800.0;
+const SPEED_OF_SOUND: f64 = 343.0;
 const BRONZE_POISSON: f64 = 0.34;
 
 /// Lowest oscillators of a membrane kept one by one (every mode, each moving with the
@@ -84,8 +88,8 @@ const PICKUP_THETA: f64 = 0.93;
 /// Output scale from modal velocity (m/s) to full scale. Light heads move far and radiate
 /// little; heavy plates move little and radiate much: one constant per kind puts a full-velocity
 /// stroke near full scale, and each piece's `gain_db` sets the mix.
-pub const MEMBRANE_OUTPUT_SCALE: f64 = 0.012;
-pub const PLATE_OUTPUT_SCALE: f64 = 0.32;
+pub const MEMBRANE_OUTPUT_SCALE: f64 = 0.042;
+pub const PLATE_OUTPUT_SCALE: f64 = 0.045;
 
 impl ModeSet {
     /// The modes of `piece`. Finding a thousand Bessel zeros takes milliseconds, so the
@@ -118,8 +122,21 @@ impl ModeSet {
             PieceKind::Plate => PLATE_OUTPUT_SCALE,
         };
         let level = 10f64.powf(piece.gain_db as f64 / 20.0) * scale;
+        // Radiation: a head's modes with many nodal diameters radiate little; a plate below
+        // its coincidence frequency radiates from its edge, more the higher the mode
+        // (efficiency about sqrt(f / f_c), Maidanik), and fully above it.
+        let coincidence_hz = match piece.kind {
+            PieceKind::Plate => {
+                let h = piece.areal_density_kg_m2 as f64 / BRONZE_DENSITY;
+                SPEED_OF_SOUND * SPEED_OF_SOUND / (1.8 * BRONZE_LONGITUDINAL_SPEED * h)
+            }
+            PieceKind::Membrane => f64::INFINITY,
+        };
         for mode in &mut modes {
-            let radiation = 1.0 / (1.0 + 0.5 * mode.m as f64);
+            let radiation = match piece.kind {
+                PieceKind::Membrane => 1.0 / (1.0 + 0.5 * mode.m as f64),
+                PieceKind::Plate => (mode.freq_hz / coincidence_hz).sqrt().min(1.0),
+            };
             let pickup = shape(mode, PICKUP_RHO, PICKUP_THETA);
             mode.out_gain *= level * radiation * pickup * 2.0 * PI * mode.freq_hz;
         }
@@ -241,8 +258,6 @@ fn membrane_modes(piece: &Piece) -> Vec<Mode> {
     let mut all = Vec::new();
     for (m, n, j) in found {
         let freq_hz = piece.fundamental_hz as f64 * j / J01;
-        let angular = if m == 0 { 2.0 * PI } else { PI };
-        let mass_kg = rho_s * a * a * angular * 0.5 * bessel_j(m + 1, j).powi(2);
         let mode = Mode {
             m,
             n,
@@ -250,13 +265,21 @@ fn membrane_modes(piece: &Piece) -> Vec<Mode> {
             zero: j,
             freq_hz,
             sigma: decay_rate(piece, freq_hz),
-            mass_kg,
+            mass_kg: 0.0,
             out_gain: 1.0,
             stands_for: 1.0,
             slope2: 0.0,
         };
         push_twins(&mut all, mode, usize::MAX);
     }
+    // Modal mass, for the modes kept: rho_s a^2 (2 pi or pi) J_(m+1)(j)^2 / 2.
+    let with_mass = |mut modes: Vec<Mode>| {
+        for mode in &mut modes {
+            let angular = if mode.m == 0 { 2.0 * PI } else { PI };
+            mode.mass_kg = rho_s * a * a * angular * 0.5 * bessel_j(mode.m + 1, mode.zero).powi(2);
+        }
+        modes
+    };
     // The lowest oscillators one by one; above them every `stride`-th (pairs kept whole),
     // each standing for the modes beside it, so the band up to max_hz stays covered.
     let max = piece.max_modes.max(1);
@@ -264,11 +287,11 @@ fn membrane_modes(piece: &Piece) -> Vec<Mode> {
     let rest = all.len() - exact;
     let room = max - exact;
     if rest <= room {
-        return all;
+        return with_mass(all);
     }
     let mut modes: Vec<Mode> = all[..exact].to_vec();
     if room == 0 {
-        return modes;
+        return with_mass(modes);
     }
     // The oscillators kept with a given stride: every `stride`-th, a cos twin with its sin.
     let pick = |stride: usize| {
@@ -293,7 +316,7 @@ fn membrane_modes(piece: &Piece) -> Vec<Mode> {
     // Each kept oscillator stands for its share of the band it covers.
     let share = rest as f64 / kept.len() as f64;
     modes.extend(kept.into_iter().map(|i| Mode { out_gain: share.sqrt(), stands_for: share, ..all[i] }));
-    modes
+    with_mass(modes)
 }
 
 /// Deterministic detuning in [-1, 1) for mode (m, n): a hash, so renders are reproducible.
@@ -307,6 +330,7 @@ fn detune(m: usize, n: usize) -> f64 {
 
 fn plate_modes(piece: &Piece) -> Vec<Mode> {
     const DETUNE: f64 = 0.03;
+    const SPLIT: f64 = 0.015;
     let (f1, p) = (piece.fundamental_hz as f64, piece.chladni_exponent as f64);
     let freq = |m: usize, n: usize| f1 * ((m + 2 * n) as f64 / 2.0).powf(p) * (1.0 + DETUNE * detune(m, n));
     // Every (m, n) of a free plate below max_hz (m + 2n >= 2; (1, 0) is a rigid tilt).
@@ -335,12 +359,15 @@ fn plate_modes(piece: &Piece) -> Vec<Mode> {
     // Radial wavenumber of n nodal circles: the (n+1)-th positive zero of J_m' (for m = 0 the
     // trivial zero at 0 is not counted, so the n-th).
     let x_max = m_max as f64 + PI * (n_max as f64 + 2.0) + 4.0;
-    let want = |m: usize, i: usize| kept.iter().any(|&(km, kn, _)| km == m && zero_index(km, kn) == i);
+    let wanted: std::collections::HashSet<(usize, usize)> =
+        kept.iter().map(|&(m, n, _)| (m, zero_index(m, n))).collect();
+    let want = |m: usize, i: usize| wanted.contains(&(m, i));
     let zs = zeros_where(ZeroKind::Slope, m_max, x_max, want);
+    let found: std::collections::HashMap<(usize, usize), f64> = zs.iter().map(|&(m, i, z)| ((m, i), z)).collect();
     let (rho_s, a) = (piece.areal_density_kg_m2 as f64, piece.radius_m as f64);
     let mut modes = Vec::new();
     for (m, n, freq_hz) in kept {
-        let Some(&(_, _, zero)) = zs.iter().find(|z| z.0 == m && z.1 == zero_index(m, n)) else {
+        let Some(&zero) = found.get(&(m, zero_index(m, n))) else {
             continue;
         };
         let angular = if m == 0 { 2.0 * PI } else { PI };
@@ -359,6 +386,12 @@ fn plate_modes(piece: &Piece) -> Vec<Mode> {
             slope2: 0.0,
         };
         push_twins(&mut modes, mode, usize::MAX);
+        // A hammered cymbal is not axisymmetric: the cos and sin twins of a pair split
+        // (by up to 1.5 %), so a pair beats and the spectrum fills twice as densely.
+        if let Some(last) = modes.last_mut().filter(|m| m.sin) {
+            last.freq_hz *= 1.0 + SPLIT * detune(last.n + 101, last.m + 7);
+            last.sigma = decay_rate(piece, last.freq_hz);
+        }
     }
     modes.truncate(piece.max_modes);
     modes

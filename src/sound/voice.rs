@@ -10,6 +10,9 @@ use super::Strike;
 use crate::kit::Piece;
 use std::f64::consts::PI;
 
+/// A membrane's modes coupled through its stretch after the contact (the lowest).
+const COUPLED_MEMBRANE_MODES: usize = 64;
+
 /// Per-mode values that depend on the current damping: [cos(wd T), sin(wd T), e^(-sigma T), wd, sigma].
 type Discrete = [f64; 5];
 
@@ -40,7 +43,7 @@ pub struct Voice {
     closed_damping_factor: Option<f64>,
     choke_damping_factor: f64,
     openness_factor: f64,
-    damping_factor: f64,
+    damping_factor: (f64, bool),
     choked: bool,
     /// The largest stretch the modes take (see [`super::bank::Bank::set_stretch`]).
     max_stretch: f32,
@@ -57,6 +60,7 @@ impl Voice {
         let centre_weights: Vec<f32> = modes.modes.iter().map(|m| if m.m == 0 { 1.0 } else { 0.0 }).collect();
         let mut bank = Bank::new(&gains, &centre_weights[..n.min(LANES)]);
         let mut max_stretch = 0.0f32;
+        bank.set_keep_moving(piece.wires.is_some());
         if modes.stretch > 0.0 {
             // Per sample, mode k's next displacement changes by T sin(w T) / (M w) times the
             // force, and the stretch pulls with stretch * s * slope2_k * y_k.
@@ -79,7 +83,12 @@ impl Voice {
                 .zip(&c)
                 .map(|(m, c)| (1.0 + (2.0 * PI * m.freq_hz * t).cos()) / (*c as f64).max(1e-30))
                 .fold(f64::MAX, f64::min);
-            let coupled = modes.contact_modes;
+            // A head's pitch glide is its low modes' (the high ones ring out within tens of
+            // milliseconds and their stretch is small): those couple; a plate's all do.
+            let coupled = match modes.kind {
+                crate::kit::PieceKind::Membrane => COUPLED_MEMBRANE_MODES.min(modes.modes.len()),
+                crate::kit::PieceKind::Plate => modes.modes.len(),
+            };
             let stiffness = modes.modes[..coupled]
                 .iter()
                 .map(|m| m.mass_kg * (2.0 * PI * m.freq_hz).powi(2) / m.slope2.max(1e-30))
@@ -117,13 +126,13 @@ impl Voice {
             closed_damping_factor: piece.closed_damping_factor.map(f64::from),
             choke_damping_factor: piece.choke_damping_factor as f64,
             openness_factor: 1.0,
-            damping_factor: f64::NAN,
+            damping_factor: (f64::NAN, false),
             choked: false,
             max_stretch,
             last_contact: ContactReport::default(),
             modes,
         };
-        voice.set_damping_factor(1.0);
+        voice.set_damping_factor(1.0, false);
         voice
     }
 
@@ -143,15 +152,20 @@ impl Voice {
         self.bank.modes()
     }
 
-    /// Every mode decays `factor` times faster than its own rate.
-    fn set_damping_factor(&mut self, factor: f64) {
-        if factor == self.damping_factor {
+    /// Every mode decays `factor` times faster than its own rate; with `by_pitch`, the
+    /// lowest mode takes the whole factor and a mode at f only (f0 / f)^0.5 of its excess (a
+    /// closed hi-hat: the cymbals pressed together at their rims stop the slow, wide motion
+    /// of the low modes and barely touch the short waves of the high ones).
+    fn set_damping_factor(&mut self, factor: f64, by_pitch: bool) {
+        if (factor, by_pitch) == self.damping_factor {
             return;
         }
-        self.damping_factor = factor;
+        self.damping_factor = (factor, by_pitch);
         let t = 1.0 / self.sample_rate_hz;
+        let f0 = self.modes.modes.first().map_or(1.0, |m| m.freq_hz);
         for (k, mode) in self.modes.modes.iter().enumerate() {
-            let (sigma, wd) = damped(2.0 * PI * mode.freq_hz, mode.sigma * factor);
+            let weight = if by_pitch { (f0 / mode.freq_hz).min(1.0).sqrt() } else { 1.0 };
+            let (sigma, wd) = damped(2.0 * PI * mode.freq_hz, mode.sigma * (1.0 + (factor - 1.0) * weight));
             let (s, c) = (wd * t).sin_cos();
             let e = (-sigma * t).exp();
             self.discrete[k] = [c, s, e, wd, sigma];
@@ -161,8 +175,11 @@ impl Voice {
     }
 
     fn update_damping(&mut self) {
-        let f = if self.choked { self.choke_damping_factor.max(self.openness_factor) } else { self.openness_factor };
-        self.set_damping_factor(f);
+        if self.choked && self.choke_damping_factor >= self.openness_factor {
+            self.set_damping_factor(self.choke_damping_factor, false);
+        } else {
+            self.set_damping_factor(self.openness_factor, true);
+        }
     }
 
     /// Hi-hat openness, 0 closed .. 1 open (ignored by pieces that are not a hi-hat).
@@ -225,6 +242,7 @@ impl Voice {
             &mut self.pending_centre,
         );
         self.last_contact = report;
+        self.bank.set_strike_peak(self.pending_out[..written].iter().fold(0.0f32, |m, v| m.max(v.abs())));
         self.pending_len = written;
         self.pending_pos = 0;
         // Back to the bank: (q, v) at the last contact sample -> (y[n-1], y[n-2]), the free

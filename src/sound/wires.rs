@@ -9,6 +9,7 @@ use crate::kit::Wires;
 pub struct WireRattle {
     gap_m: f32,
     gain: f32,
+    exponent: f32,
     env: f32,
     env_decay: f32,
     // RBJ band-pass (0 dB peak) coefficients and state.
@@ -31,6 +32,7 @@ impl WireRattle {
         WireRattle {
             gap_m: w.gap_m,
             gain: w.gain,
+            exponent: w.exponent,
             env: 0.0,
             env_decay: (-6.907_755 / (w.decay_s * sample_rate_hz)).exp(),
             b0: alpha / a0,
@@ -48,7 +50,12 @@ impl WireRattle {
     /// Add the rattle driven by the centre displacement `centre` into `out`.
     pub fn process(&mut self, centre: &[f32], out: &mut [f32]) {
         for (c, o) in centre.iter().zip(out.iter_mut()) {
-            let drive = (c.abs() - self.gap_m).max(0.0) * self.gain;
+            let past = (c.abs() - self.gap_m).max(0.0);
+            let drive = if self.exponent == 1.0 {
+                past * self.gain
+            } else {
+                (past * 1e3).powf(self.exponent) * 1e-3 * self.gain
+            };
             self.env = drive.max(self.env * self.env_decay);
             if self.env < 1e-7 {
                 self.env = 0.0;
