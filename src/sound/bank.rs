@@ -121,9 +121,9 @@ impl Bank {
             return;
         }
         let mut s = 0.0;
-        for (c, w) in self.stretch_w.iter().enumerate().take(self.coupled_chunks) {
-            for l in 0..LANES {
-                s += w[l] * self.y1[c][l] * self.y1[c][l];
+        for (w, y) in self.stretch_w.iter().zip(&self.y1).take(self.coupled_chunks) {
+            for (w, y) in w.iter().zip(y) {
+                s += w * y * y;
             }
         }
         self.stretch = s.min(self.max_stretch);
