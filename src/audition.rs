@@ -138,16 +138,17 @@ pub fn play(kit: &Kit, messages: &[Message], len_s: f64) -> anyhow::Result<(Vec<
     for m in messages {
         engine.push(SoundEvent::from_message(m, kit, SAMPLE_RATE_HZ)?);
     }
+    // The limiter's look-ahead delays the output: render that much more and drop it from
+    // the front, so the signal lines up with the events and is `len_s` long.
     let n = (len_s * SAMPLE_RATE_HZ as f64) as usize;
-    let (mut left, mut right) = (vec![0.0; n], vec![0.0; n]);
+    let lat = engine.latency_samples();
+    let (mut left, mut right) = (vec![0.0; n + lat], vec![0.0; n + lat]);
     engine.process(&mut left, &mut right);
     // Each audition plays one strike per piece (a rim shot strikes the head and its hoop).
     let contact_ms = match first_strike {
         Some(piece) => engine.voice(piece).last_contact.contact_s * 1e3,
         None => 0.0,
     };
-    // The limiter's look-ahead delays the output: line it up with the events.
-    let lat = engine.latency_samples().min(n);
     left.drain(..lat);
     right.drain(..lat);
     Ok((left, right, contact_ms))

@@ -344,3 +344,29 @@ fn a_direct_render_names_the_hand_that_strikes_in_its_motion() {
         assert_eq!(same, compared, "{take}");
     }
 }
+
+#[test]
+fn audition_writes_every_piece_and_its_measures() {
+    let out = fresh_dir("audition");
+    let o = drumsim(&["audition", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let files = files_in(&out);
+    for wav in ["kick.wav", "snare.wav", "hihat.wav", "crash.wav", "ride.wav", "audition.json"] {
+        assert!(files.iter().any(|f| f == wav), "no {wav} in {files:?}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("audition.json")).unwrap()).unwrap();
+    let hits = json["hits"].as_array().unwrap();
+    // Every stroke at the six velocities, each with its place in its WAV and its measures.
+    let strokes = drumsim::audition::strokes(&Kit::builtin_default()).len();
+    assert_eq!(hits.len(), strokes * drumsim::audition::VELOCITIES.len());
+    let (l, _, rate) = drumsim::sound::wav::read_stereo(&out.join("snare.wav")).unwrap();
+    let snare: Vec<&serde_json::Value> = hits.iter().filter(|h| h["piece"] == "snare").collect();
+    let last = snare.iter().map(|h| h["start_s"].as_f64().unwrap()).fold(0.0, f64::max);
+    assert!(last + drumsim::audition::HIT_SPACING_S <= l.len() as f64 / rate as f64 + 1e-6);
+    assert!(snare.iter().all(|h| h["measures"]["level_db"].as_f64().unwrap() > -90.0));
+    // A kit file that is not there: exit 2, naming it.
+    let o = drumsim(&["audition", "--kit", "no/such/kit.toml", "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no/such/kit.toml"));
+}

@@ -77,7 +77,9 @@ fn centre_strike_excites_no_mode_with_nodal_diameters() {
 
 #[test]
 fn faster_strike_is_louder_shorter_in_contact_and_brighter() {
-    let p = Piece { wires: None, ..piece("snare") };
+    // The Hertz contact alone (a linear head): a stretching head's own shortening of the
+    // contact is tested below.
+    let p = Piece { wires: None, stretch: 0.0, ..piece("snare") };
     let r = 0.3 * p.radius_m;
     let mut last: Option<(f64, f64, f64)> = None;
     for speed in [0.5, 2.0, 8.0] {
@@ -111,8 +113,9 @@ fn contact_energy_balances_and_ringing_energy_never_grows() {
             let kept = 0.5 * m * voice.last_contact.rebound_mps.powi(2);
             (voice.modal_energy_j(), kept, voice)
         };
-        // Without damping the contact only moves energy between striker and surface.
-        let lossless = Piece { wires: None, decay_s: 60.0, damping_exponent: 0.0, ..piece(id) };
+        // Without damping the contact only moves energy between striker and surface (linear:
+        // the modal energy leaves out what a stretched head stores).
+        let lossless = Piece { wires: None, decay_s: 60.0, damping_exponent: 0.0, stretch: 0.0, ..piece(id) };
         let (energy, kept, _) = energy_after(&lossless);
         assert!(((energy + kept) / given - 1.0).abs() < 0.01, "{id}: {energy} + {kept} J of {given} J");
         // With damping the surface loses some while the striker is on it, and creates none.
@@ -195,7 +198,9 @@ fn a_closing_foot_chokes_a_ringing_open_hihat() {
     let (l, _) = render(&mut e, 36_000);
     let before = rms(&l[23_000..24_000]);
     let after = rms(&l[24_000 + 4_800..24_000 + 5_760]);
-    assert!(after < before * 0.01, "closing: {before} -> {after}");
+    // 100 ms after the foot closes, 20 dB down at least: a closed hi-hat struck falls 20 dB
+    // in 103-109 ms in the recorded kits (assets/reference/recorded-kits.json).
+    assert!(after < before * 0.1, "closing: {before} -> {after}");
 }
 
 #[test]
@@ -275,8 +280,12 @@ fn the_strike_point_changes_which_modes_ring() {
     let share_of_many_diameters = |r_frac: f32| {
         let mut v = Voice::new(&p, FS, 512);
         v.strike(&Strike { mass_kg: 0.045, ..strike_at(0.0, -r_frac * p.radius_m, 5.0) });
-        let total = v.modal_energy_j();
-        let many: f64 = (0..v.modes()).filter(|&k| v.modes.modes[k].m >= 4).map(|k| v.mode_energy_j(k)).sum();
+        // The modes a bell strike can reach at all: below 4 kHz, where J_m(x) ~ x^m holds
+        // at a tenth of the radius.
+        let low = |k: &usize| v.modes.modes[*k].freq_hz < 4000.0;
+        let total: f64 = (0..v.modes()).filter(low).map(|k| v.mode_energy_j(k)).sum();
+        let many: f64 =
+            (0..v.modes()).filter(low).filter(|&k| v.modes.modes[k].m >= 4).map(|k| v.mode_energy_j(k)).sum();
         many / total
     };
     let (bell, edge) = (share_of_many_diameters(0.1), share_of_many_diameters(0.95));

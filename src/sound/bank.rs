@@ -46,6 +46,9 @@ pub struct Bank {
     max_stretch: f32,
     stretch_off: f32,
     coupled_chunks: usize,
+    /// The largest stretch since the last sleep check: the coupling stops only at a check,
+    /// so the output does not depend on how the caller splits it into blocks.
+    stretch_most: f32,
     /// Output below which a chunk sleeps (see [`SILENT_OUTPUT`]), and whether a chunk that
     /// still moves the surface stays awake (snare wires listen to the head's motion).
     silent_output: f32,
@@ -93,6 +96,7 @@ impl Bank {
             coupled_chunks: 0,
             silent_output: SILENT_OUTPUT,
             keep_moving: true,
+            stretch_most: 0.0,
         }
     }
 
@@ -128,6 +132,7 @@ impl Bank {
         }
         self.stretch = s.min(self.max_stretch);
         self.coupled = s > self.stretch_off;
+        self.stretch_most = self.stretch_most.max(self.stretch);
     }
 
     /// Whether chunks that are silent but still move the surface keep running (true unless
@@ -192,6 +197,10 @@ impl Bank {
             }
             self.clock += (end - i) as u64;
             if self.clock.is_multiple_of(SLEEP_CHECK) {
+                if self.coupled && self.stretch_most < self.stretch_off {
+                    self.coupled = false;
+                }
+                self.stretch_most = 0.0;
                 for c in 0..self.active.len() {
                     if self.active[c] {
                         self.sleep_if_silent(c);
@@ -299,9 +308,7 @@ impl Bank {
             most = most.max(stretch);
         }
         self.stretch = stretch;
-        if most < self.stretch_off {
-            self.coupled = false;
-        }
+        self.stretch_most = self.stretch_most.max(most);
     }
 
     fn process_first_with_centre(&mut self, acc: &mut [Lane], centre: &mut [f32]) {

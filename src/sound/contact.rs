@@ -321,9 +321,22 @@ pub fn run_contact(
     }
     // The modes above the split, rung by the force they felt, a sample at a time: their
     // output (and centre displacement) adds to what the contact wrote.
+    let mut high_gain_j = 0.0;
     if dynamic < q_all.len() {
         impulses[written - 1] += 0.5 * impulse as f32;
         let (q, v) = (&mut q_all[dynamic..], &mut v_all[dynamic..]);
+        // Their energy, 1/2 M wd^2 (q^2 + v^2) for light damping: what they gain the striker
+        // pays (the residual spring itself hands back all it stored).
+        let energy = |q: &[Lane], v: &[Lane]| {
+            let mut e = 0.0;
+            for (k, mode) in modes.modes.iter().enumerate().skip(dynamic * LANES) {
+                let (i, l) = (k / LANES - dynamic, k % LANES);
+                let w = 2.0 * std::f64::consts::PI * mode.freq_hz;
+                e += 0.5 * mode.mass_kg * w * w * ((q[i][l] as f64).powi(2) + (v[i][l] as f64).powi(2));
+            }
+            e
+        };
+        let before = energy(q, v);
         let high = &chunks_all[dynamic..];
         let gain = &gain_all[dynamic..];
         for (n, imp) in impulses[..written].iter().enumerate() {
@@ -335,8 +348,11 @@ pub fn run_contact(
             out[n] += o;
             centre[n] += mid;
         }
+        high_gain_j = energy(q, v) - before;
     }
-    report.rebound_mps = -v;
+    // The striker leaves with what the high modes did not take.
+    let kinetic = 0.5 * strike.mass_kg * v * v - high_gain_j;
+    report.rebound_mps = -v.signum() * (2.0 * kinetic.max(0.0) / strike.mass_kg).sqrt();
     report.span_s = written as f64 / sample_rate_hz;
     (written, report)
 }

@@ -153,7 +153,7 @@ impl Voice {
     }
 
     /// Every mode decays `factor` times faster than its own rate; with `by_pitch`, the
-    /// lowest mode takes the whole factor and a mode at f only (f0 / f)^0.5 of its excess (a
+    /// lowest mode takes the whole factor and a mode at f only (f0 / f)^0.3 of its excess (a
     /// closed hi-hat: the cymbals pressed together at their rims stop the slow, wide motion
     /// of the low modes and barely touch the short waves of the high ones).
     fn set_damping_factor(&mut self, factor: f64, by_pitch: bool) {
@@ -164,7 +164,7 @@ impl Voice {
         let t = 1.0 / self.sample_rate_hz;
         let f0 = self.modes.modes.first().map_or(1.0, |m| m.freq_hz);
         for (k, mode) in self.modes.modes.iter().enumerate() {
-            let weight = if by_pitch { (f0 / mode.freq_hz).min(1.0).sqrt() } else { 1.0 };
+            let weight = if by_pitch { (f0 / mode.freq_hz).min(1.0).powf(0.3) } else { 1.0 };
             let (sigma, wd) = damped(2.0 * PI * mode.freq_hz, mode.sigma * (1.0 + (factor - 1.0) * weight));
             let (s, c) = (wd * t).sin_cos();
             let e = (-sigma * t).exp();
