@@ -3,7 +3,9 @@
 //! the same stroke names and velocities (`drumsim::audition::VELOCITIES`).
 //!
 //! `cargo run --release --example recorded_kits [-- OUT.json]` writes
-//! assets/reference/recorded-kits.json (or OUT.json) and prints a table. Two kits, both from
+//! assets/reference/recorded-kits.json (or OUT.json) and prints a table. With
+//! `DRUMSIM_RECORDED_WAVS=DIR` it also writes each measured hit as DIR/KIT/NAME-VELOCITY.wav
+//! (for `examples/spectrograms.rs`). Two kits, both from
 //! Debian packages: FluidR3 GM (fluid-soundfont-gm, rendered by fluidsynth with reverb and
 //! chorus off) and Hydrogen's "The Black Pearl 1.0" (hydrogen-drumkits, its WAV layers read
 //! directly and scaled the way Hydrogen scales them).
@@ -133,7 +135,24 @@ fn main() -> Result<()> {
 }
 
 /// Measure one hit, or say which one was silent.
-fn measure(name: &str, velocity: u8, left: &[f32], right: &[f32], rate_hz: f64) -> Result<Hit> {
+fn measure(kit: &str, name: &str, velocity: u8, left: &[f32], right: &[f32], rate_hz: f64) -> Result<Hit> {
+    if let Some(dir) = std::env::var_os("DRUMSIM_RECORDED_WAVS") {
+        let dir = Path::new(&dir).join(kit);
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        let path = dir.join(format!("{name}-{velocity}.wav"));
+        let spec = hound::WavSpec {
+            channels: 2,
+            sample_rate: rate_hz as u32,
+            bits_per_sample: 32,
+            sample_format: hound::SampleFormat::Float,
+        };
+        let mut w = hound::WavWriter::create(&path, spec).with_context(|| format!("writing {}", path.display()))?;
+        for (l, r) in left.iter().zip(right) {
+            w.write_sample(*l)?;
+            w.write_sample(*r)?;
+        }
+        w.finalize()?;
+    }
     let measures = measure_hit(left, right, rate_hz).ok_or_else(|| anyhow!("{name} v{velocity}: silent"))?;
     // The onset should be at 10 ms; say so when the recording has leading silence or a
     // slow attack.
@@ -172,7 +191,14 @@ fn fluid_hits() -> Result<Vec<Hit>> {
     let (pre, len) = ((PRE_S * RATE_HZ as f64) as usize, (LEN_S * RATE_HZ as f64) as usize);
     for (i, (name, _, velocity)) in gm_hits().enumerate() {
         let from = ((FIRST_S + i as f64 * SPACING_S) * RATE_HZ as f64) as usize - pre;
-        hits.push(measure(name, velocity, &slice(&left, from, len), &slice(&right, from, len), RATE_HZ as f64)?);
+        hits.push(measure(
+            "fluidr3",
+            name,
+            velocity,
+            &slice(&left, from, len),
+            &slice(&right, from, len),
+            RATE_HZ as f64,
+        )?);
     }
     Ok(hits)
 }
@@ -305,7 +331,7 @@ fn pearl_hits() -> Result<Vec<Hit>> {
                 out.extend(x.iter().map(|s| s * gain));
                 slice(&out, 0, len)
             };
-            hits.push(measure(name, velocity, &padded(&left), &padded(&right), rate as f64)?);
+            hits.push(measure("black-pearl", name, velocity, &padded(&left), &padded(&right), rate as f64)?);
         }
     }
     Ok(hits)

@@ -11,7 +11,7 @@ pub const LANES: usize = 8;
 pub type Lane = [f32; LANES];
 
 /// A chunk sleeps when every mode's output is below this (-100 dBFS), or below
-/// [`BELOW_STRIKE`] of the last strike's loudest sample if that is higher ...
+/// [`BELOW_STRIKE`] of the last strike's level (its contact's RMS) if that is higher ...
 const SILENT_OUTPUT: f32 = 1e-5;
 /// ... -80 dB: a tail that far under its own attack is masked by it and by anything else
 /// that plays.
@@ -141,9 +141,10 @@ impl Bank {
         self.keep_moving = keep;
     }
 
-    /// A strike's loudest output sample was `peak`: modes may sleep [`BELOW_STRIKE`] under it.
-    pub fn set_strike_peak(&mut self, peak: f32) {
-        self.silent_output = SILENT_OUTPUT.max(peak * BELOW_STRIKE);
+    /// A strike's level (RMS of its contact) was `level`: modes may sleep [`BELOW_STRIKE`]
+    /// under it.
+    pub fn set_strike_level(&mut self, level: f32) {
+        self.silent_output = SILENT_OUTPUT.max(level * BELOW_STRIKE);
     }
 
     /// True while the modes run coupled through the stretch.
@@ -332,9 +333,16 @@ impl Bank {
 
     fn sleep_if_silent(&mut self, c: usize) {
         let (y1, y2, g) = (&self.y1[c], &self.y2[c], &self.gain[c]);
+        let (a1, a2) = (&self.a1[c], &self.a2[c]);
         let loud = (0..LANES).any(|l| {
-            let y = y1[l].abs().max(y2[l].abs());
-            y * g[l].abs() > self.silent_output || (self.keep_moving && y > SILENT_DISPLACEMENT)
+            // The mode's amplitude, not its value now (a slow mode can be near a zero
+            // crossing for both samples): y[n] = A cos(n theta + phi) gives
+            // y1^2 + y2^2 - 2 cos(theta) y1 y2 = A^2 sin^2(theta) (damping within a sample
+            // left out).
+            let cos = a1[l] / (2.0 * a2[l].sqrt().max(1e-12));
+            let sin2 = (1.0 - cos * cos).max(1e-12);
+            let amp = ((y1[l] * y1[l] + y2[l] * y2[l] - 2.0 * cos * y1[l] * y2[l]).max(0.0) / sin2).sqrt();
+            amp * g[l].abs() > self.silent_output || (self.keep_moving && amp > SILENT_DISPLACEMENT)
         });
         if !loud {
             self.active[c] = false;

@@ -242,7 +242,11 @@ impl Voice {
             &mut self.pending_centre,
         );
         self.last_contact = report;
-        self.bank.set_strike_peak(self.pending_out[..written].iter().fold(0.0f32, |m, v| m.max(v.abs())));
+        // The strike's level: the RMS of its contact (a click's single peak can stand 30 dB
+        // over the ring that follows).
+        let contact = &self.pending_out[..written];
+        let rms = (contact.iter().map(|v| v * v).sum::<f32>() / written.max(1) as f32).sqrt();
+        self.bank.set_strike_level(rms);
         self.pending_len = written;
         self.pending_pos = 0;
         // Back to the bank: (q, v) at the last contact sample -> (y[n-1], y[n-2]), the free
