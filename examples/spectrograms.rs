@@ -74,9 +74,9 @@ fn spectrogram(x: &[f32], rate: f64) -> Vec<f64> {
     for col in 0..WIDTH {
         let start = (col as f64 * hop) as usize;
         let (mut re, mut im) = (vec![0.0; FFT], vec![0.0; FFT]);
-        for i in 0..FFT {
+        for (i, r) in re.iter_mut().enumerate() {
             let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / FFT as f64).cos();
-            re[i] = x.get(start + i).copied().unwrap_or(0.0) as f64 * w;
+            *r = x.get(start + i).copied().unwrap_or(0.0) as f64 * w;
         }
         fft(&mut re, &mut im);
         for row in 0..HEIGHT {
