@@ -95,7 +95,7 @@ enum Command {
         out: PathBuf,
         #[arg(long, value_enum, default_value_t = SoundMode::Direct)]
         sound: SoundMode,
-        /// Kit: a built-in kit (default, rearranged) or a kit file (default: default).
+        /// Kit: a built-in kit (default, rearranged, jazz, rock) or a kit file (default: default).
         #[arg(long)]
         kit: Option<PathBuf>,
         /// Note map: auto (the built-in map that knows the most of the song's notes), gm, gs,
@@ -208,7 +208,7 @@ enum Command {
     /// Every piece of a kit struck alone at several velocities and zones: DIR/PIECE.wav and
     /// DIR/audition.json with each hit's measures (level, centroid, decay, tail, pitch, contact).
     Audition {
-        /// Kit: a built-in kit (default, rearranged) or a kit file (default: default).
+        /// Kit: a built-in kit (default, rearranged, jazz, rock) or a kit file (default: default).
         #[arg(long)]
         kit: Option<PathBuf>,
         #[arg(long, default_value = "audition")]

@@ -40,7 +40,14 @@ fn reference() -> &'static Reference {
 fn ours(kit: &str) -> &'static Audition {
     static DEFAULT: OnceLock<Audition> = OnceLock::new();
     static REARRANGED: OnceLock<Audition> = OnceLock::new();
-    let cell = if kit == "default" { &DEFAULT } else { &REARRANGED };
+    static JAZZ: OnceLock<Audition> = OnceLock::new();
+    static ROCK: OnceLock<Audition> = OnceLock::new();
+    let cell = match kit {
+        "default" => &DEFAULT,
+        "rearranged" => &REARRANGED,
+        "jazz" => &JAZZ,
+        _ => &ROCK,
+    };
     cell.get_or_init(|| audition::audition(&Kit::builtin(kit).unwrap(), None).expect("the audition renders"))
 }
 
@@ -136,6 +143,12 @@ fn each_piece_sits_in_the_recorded_kits_balance() {
 #[test]
 fn the_rearranged_kit_keeps_the_balance() {
     balance("rearranged");
+}
+
+#[test]
+fn the_jazz_and_rock_kits_are_balanced_too() {
+    balance("jazz");
+    balance("rock");
 }
 
 #[test]

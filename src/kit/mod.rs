@@ -128,7 +128,7 @@ pub struct Kit {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum KitError {
-    #[error("kit config {path}: cannot read: {source} (built-in kits: default, rearranged)")]
+    #[error("kit config {path}: cannot read: {source} (built-in kits: default, rearranged, jazz, rock)")]
     Read { path: PathBuf, source: std::io::Error },
     #[error("kit config {path}: {message}")]
     Parse { path: PathBuf, message: String },

@@ -7,8 +7,12 @@ use std::path::Path;
 pub const DEFAULT_KIT_TOML: &str = include_str!("../../config/kits/default.toml");
 
 /// The kits compiled into the binary, by the name `--kit` knows them by.
-pub const BUILTIN_KITS: [(&str, &str); 2] =
-    [("default", DEFAULT_KIT_TOML), ("rearranged", include_str!("../../config/kits/rearranged.toml"))];
+pub const BUILTIN_KITS: [(&str, &str); 4] = [
+    ("default", DEFAULT_KIT_TOML),
+    ("rearranged", include_str!("../../config/kits/rearranged.toml")),
+    ("jazz", include_str!("../../config/kits/jazz.toml")),
+    ("rock", include_str!("../../config/kits/rock.toml")),
+];
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -313,7 +317,7 @@ mod tests {
             assert_eq!(by_name.name, Kit::load(&file).unwrap().name, "{name}");
         }
         let e = Kit::load(Path::new("no-such-kit")).unwrap_err().to_string();
-        assert!(e.contains("no-such-kit") && e.contains("built-in kits: default, rearranged"), "{e}");
+        assert!(e.contains("no-such-kit") && e.contains("built-in kits: default, rearranged, jazz, rock"), "{e}");
     }
 
     #[test]
