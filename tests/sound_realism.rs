@@ -76,12 +76,18 @@ fn level_re_snare(m: &HitMeasures, snare: &HitMeasures) -> f64 {
     m.level_db - snare.level_db
 }
 
+/// The lowest and highest of the recorded values.
+fn span(rec: &[(String, f64)]) -> (f64, f64) {
+    let lo = rec.iter().map(|r| r.1).fold(f64::MAX, f64::min);
+    let hi = rec.iter().map(|r| r.1).fold(f64::MIN, f64::max);
+    (lo, hi)
+}
+
 /// Check `value` against the recorded values widened by `below` and `above`; returns a
 /// line for the report, and whether it passed.
 fn check(what: &str, value: f64, rec: &[(String, f64)], below: f64, above: f64) -> (String, bool) {
     assert!(!rec.is_empty(), "{what}: no recorded kit has it");
-    let lo = rec.iter().map(|r| r.1).fold(f64::MAX, f64::min);
-    let hi = rec.iter().map(|r| r.1).fold(f64::MIN, f64::max);
+    let (lo, hi) = span(rec);
     let ok = value >= lo - below && value <= hi + above;
     let kits: Vec<String> = rec.iter().map(|(k, v)| format!("{k} {v:.1}")).collect();
     (
@@ -159,7 +165,7 @@ fn cymbals_and_hihats_are_as_bright_as_recorded_ones() {
     for name in ["hihat closed", "hihat open", "crash bow", "ride bow", "splash bow", "china bow"] {
         let ours = our_hit(a, name, 127).centroid_50ms_hz;
         let rec = recorded(name, 127, |m| Some(m.centroid_50ms_hz));
-        let (lo, hi) = (rec.iter().map(|r| r.1).fold(f64::MAX, f64::min), rec.iter().map(|r| r.1).fold(0.0, f64::max));
+        let (lo, hi) = span(&rec);
         lines.push(check(&format!("{name}: centroid of the first 50 ms, Hz"), ours, &rec, lo / 3.0, hi / 2.0));
     }
     // Energy above 4 kHz 0.5-1 s after the hit: the tail is high, not a gong's low hum.
@@ -183,7 +189,7 @@ fn hihats_and_crash_decay_like_recorded_ones() {
     for name in ["hihat closed", "hihat open", "hihat pedal", "crash bow"] {
         let ours = our_hit(a, name, 127).decay_20db_ms.expect("decays");
         let rec = recorded(name, 127, |m| m.decay_20db_ms);
-        let (lo, hi) = (rec.iter().map(|r| r.1).fold(f64::MAX, f64::min), rec.iter().map(|r| r.1).fold(0.0, f64::max));
+        let (lo, hi) = span(&rec);
         // Within 1/1.5 .. 1.5 times the recorded range.
         lines.push(check(&format!("{name}: decay to -20 dB, ms"), ours, &rec, lo / 3.0, hi / 2.0));
     }

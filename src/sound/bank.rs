@@ -147,11 +147,6 @@ impl Bank {
         self.silent_output = SILENT_OUTPUT.max(level * BELOW_STRIKE);
     }
 
-    /// True while the modes run coupled through the stretch.
-    pub fn is_coupled(&self) -> bool {
-        self.coupled
-    }
-
     pub fn modes(&self) -> usize {
         self.modes
     }
