@@ -247,3 +247,73 @@ fn the_feet_follow_their_pedal_targets_and_the_whole_figure_exists() {
     d.step_tips(Mode::Himc, &targets, &mut |_| {});
     assert!((d.leg_poses()[1][2].z - FEET_HOME[1][2]).abs() < 1e-3);
 }
+
+#[test]
+fn a_stroke_on_a_tilted_cymbal_is_reported_in_the_step_its_bead_touches() {
+    // The ride is a plate tilted toward the drummer: slow and fast strokes on its bow each
+    // make one contact, reported within 0.3 ms of the bead reaching it, and press in under
+    // 2 mm.
+    for style in [Style::Legato, Style::Accent, Style::VerticalAccent, Style::Staccato] {
+        strike_ride(style);
+    }
+}
+
+fn strike_ride(style: Style) {
+    let mut d = drummer();
+    let ride = d.surfaces().iter().position(|s| s.id == "ride").unwrap();
+    let hihat = d.surfaces().iter().position(|s| s.id == "hihat").unwrap();
+    let s = d.surfaces()[ride].clone();
+    let hits: Vec<f64> = (0..6).map(|k| 0.6 + 0.4 * k as f64).collect();
+    // Half way from its centre toward the drummer's seat, on the bow.
+    let toward = Vector::new(-s.center.x, -s.center.y, 0.0);
+    let toward = (toward - s.normal * toward.dot(s.normal)).normalize() * (0.5 * s.radius_m);
+    let (x, y) = (toward.dot(s.u), toward.dot(s.v));
+    let plan = StrokePlan::on(&s, 1, x, y, style.params(), hits.clone());
+    let idle = StrokePlan::on(&d.surfaces()[hihat].clone(), 0, 0.0, 0.0, Style::Legato.params(), Vec::new());
+    let bead = d.skel.stick.radius_m;
+    let mut strikes = Vec::new();
+    let mut touches = Vec::new();
+    let mut was_touching = false;
+    let mut lowest = f32::INFINITY;
+    // First up from over the hi-hat and across above the ride, not under its edge.
+    let start = d.tips(Mode::Himc)[1];
+    let (up, over) = (start + Vector::Z * 0.35, plan.target(0.5).tip + s.normal * 0.1);
+    let approach = |t: f64| {
+        let x = (t / 0.25).min(1.0) as f32;
+        let y = ((t - 0.25) / 0.2).clamp(0.0, 1.0) as f32;
+        let z = ((t - 0.45) / 0.1).clamp(0.0, 1.0) as f32;
+        let p = if t < 0.25 {
+            start.lerp(up, x)
+        } else if t < 0.45 {
+            up.lerp(over, y)
+        } else {
+            over.lerp(plan.target(0.55).tip, z)
+        };
+        ArmTarget { tip: p, dir: plan.target(t).dir }
+    };
+    while d.time_s() < 3.0 {
+        let t = d.time_s() + 1e-4;
+        let right = if t < 0.55 { approach(t) } else { plan.target(t) };
+        d.step_tips(Mode::Himc, &[idle.target(t), right], &mut |st| strikes.push(st));
+        // The solver's soft contact stops the bead a fraction of a millimetre short.
+        let touching = s.height(d.tips(Mode::Himc)[1]) <= bead + 5e-4;
+        if touching && !was_touching {
+            touches.push(d.time_s());
+        }
+        was_touching = touching;
+        if t > 0.55 {
+            lowest = lowest.min(s.height(d.tips(Mode::Himc)[1]));
+        }
+    }
+    let on_ride: Vec<&Strike> = strikes.iter().filter(|st| st.surface == ride && st.side == 1).collect();
+    assert_eq!(
+        on_ride.len(),
+        hits.len(),
+        "{style:?}: one contact per stroke: {on_ride:?}, bead touched at {touches:?}"
+    );
+    for st in &on_ride {
+        let first = touches.iter().map(|&t| (t - st.time_s).abs()).fold(f64::INFINITY, f64::min);
+        assert!(first <= 3e-4, "{style:?}: contact reported {:.2} ms from the bead's touch", first * 1e3);
+    }
+    assert!(lowest > bead - 0.002, "{style:?}: the bead sank {:.1} mm into the ride", (bead - lowest) * 1e3);
+}

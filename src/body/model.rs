@@ -173,6 +173,12 @@ pub fn build(skel: &Skeleton, pose: &WorldPose, kit: &Kit, solver_iterations: us
     world.integration_parameters.num_solver_iterations = 1;
     world.integration_parameters.num_internal_pgs_iterations = solver_iterations.max(1);
     world.integration_parameters.warmstart_joints = true;
+    // Every contact is found afresh each step. rapier otherwise reuses a pair's contact
+    // points while the two colliders have moved less than 5 cm relative to each other, and
+    // a stick crosses that in 5-50 ms: its separations and impulses went stale through a
+    // stroke's last millimetres, so sticks sank into heads (18.7 mm against 4.8 mm on eight
+    // validation takes) and contacts were reported late or twice.
+    world.integration_parameters.contact_recycling = false;
     let mut bodies = [RigidBodyHandle::invalid(); LINKS];
     for i in 0..LINKS {
         let builder = if i == 0 { RigidBodyBuilder::fixed() } else { RigidBodyBuilder::dynamic() };
