@@ -106,8 +106,7 @@ pub fn prepare(kit: &Kit, map: &NoteMap, opts: &AvatarOptions) -> anyhow::Result
     let hub = opts.view_port.map(|_| Arc::new(LiveHub::default()));
     let url = match (opts.view_port, &hub) {
         (Some(port), Some(hub)) => {
-            let mut baked = Baked::new(&waiting.motion, &rig)?;
-            baked.kit = Some(kit);
+            let baked = Baked::in_kit(&waiting.motion, &rig, Some(kit))?;
             let info = serde_json::json!({
                 "live": true,
                 "song": "live",

@@ -4,6 +4,7 @@ pub mod audio;
 pub mod beat;
 pub mod dtw;
 pub mod motion;
+pub mod motion_quality;
 pub mod note_sound;
 pub mod report;
 pub mod savgol;

@@ -20,19 +20,49 @@
 //! targets fall back to the rest pose's. No output is ever NaN.
 
 use super::rig::{BodyPose, Rig, FOOT, HAND, HEAD, HIPS, NECK, SHOULDER, SPINE, UPPER_LEG};
+use super::shells::Shell;
 use super::track::{Motion, MotionFrame, Pose};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
 /// How far the hips may slide on the seat to bring the chest to its target, m.
 pub const MAX_HIP_SHIFT_M: f32 = 0.08;
 
-/// Poses of every frame of a motion.
+/// The most a forearm's twist (half the hand's twist about it) turns between two frames
+/// of a motion, radians: 15 degrees, 900 degrees a second at 60 fps.
+pub const MAX_TWIST_STEP_RAD: f32 = 15.0 * std::f32::consts::PI / 180.0;
+
+/// Poses of every frame of a motion. Each forearm's twist continues from the frame before:
+/// a hand turning on past half a turn about the forearm keeps turning the same way instead
+/// of flipping the forearm by 180 degrees.
 pub fn solve_motion(rig: &Rig, motion: &Motion) -> Vec<BodyPose> {
-    motion.frames.iter().map(|f| solve(rig, f)).collect()
+    solve_motion_in(rig, motion, &[])
+}
+
+/// [`solve_motion`] with the knees kept out of `shells` (see [`knee_pole`]).
+pub fn solve_motion_in(rig: &Rig, motion: &Motion, shells: &[Shell]) -> Vec<BodyPose> {
+    let mut carry = Carry { knee: knee_angles(rig, motion, shells), ..Carry::default() };
+    motion.frames.iter().map(|f| solve_after(rig, f, &mut carry)).collect()
 }
 
 /// The body pose that meets one frame's targets.
 pub fn solve(rig: &Rig, frame: &MotionFrame) -> BodyPose {
+    solve_after(rig, frame, &mut Carry::default())
+}
+
+/// What one frame's solve hands the next, so that the motion stays continuous: each hand's
+/// twist about its forearm, each elbow's direction, and each knee's turn from forward
+/// (radians; `None`: forward).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Carry {
+    pub twist: [Option<f32>; 2],
+    pub knee: [Option<f32>; 2],
+    /// Each elbow's direction across its arm (unit).
+    pub elbow: [Option<Vector3<f32>>; 2],
+}
+
+/// [`solve`], continuing from `carry` (the frame before's twists, and the knees' turns of
+/// [`knee_angles`]) and leaving this frame's twists there.
+pub fn solve_after(rig: &Rig, frame: &MotionFrame, carry: &mut Carry) -> BodyPose {
     let rest = rig.rest_positions();
     let mut pose = rig.rest_pose();
     let id = UnitQuaternion::identity();
@@ -65,19 +95,36 @@ pub fn solve(rig: &Rig, frame: &MotionFrame) -> BodyPose {
         let grip_rest = rest[hand] + rig.grip_local;
         let wrist = position(&frame.hands[side], grip_rest) - hand_rot * rig.grip_local;
         let out = if side == 0 { -1.0 } else { 1.0 };
-        let pole = Vector3::new(0.8 * out, -0.3, -1.0);
+        // Out, down and a little back; and toward where the elbow was the frame before,
+        // so that a wrist passing near the pole's line does not swing the elbow over.
+        let pole = Vector3::new(0.8 * out, -0.3, -1.0).normalize() + carry.elbow[side].unwrap_or_else(Vector3::zeros);
         let limb = TwoBone {
             root: world[arm].0,
             lengths: [rig.link_length(forearm), rig.link_length(hand)],
             pole,
             hinge_rest: Vector3::x(),
         };
+        carry.elbow[side] = Some(limb.geometry(wrist).1).filter(|p| p.iter().all(|v| v.is_finite()));
         let (upper_w, lower_w, bend) = limb.solve(wrist);
         let parent_rot = world[sh].1;
         pose.local[arm] = parent_rot.inverse() * upper_w;
         // Split the hand's twist about the forearm axis (local -z) between forearm and hand.
         let hand_local = lower_w.inverse() * hand_rot;
-        let half_twist = twist_about_z(&hand_local).powf(0.5);
+        let t = twist_about_z(&hand_local);
+        let mut angle = 2.0 * t.k.atan2(t.w);
+        let turn = std::f32::consts::TAU;
+        angle = match carry.twist[side] {
+            Some(before) if before.is_finite() => {
+                // Continuous, and at most MAX_TWIST_STEP_RAD from the frame before: near a
+                // wrist bent square to the forearm the twist is ill-defined and swings fast
+                // while the hand hardly turns; the hand's own rotation takes up the rest.
+                let near = angle + turn * ((before - angle) / turn).round();
+                before + (near - before).clamp(-MAX_TWIST_STEP_RAD, MAX_TWIST_STEP_RAD)
+            }
+            _ => angle - turn * (angle / turn).round(),
+        };
+        carry.twist[side] = Some(angle);
+        let half_twist = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.5 * angle);
         pose.local[forearm] = bend * half_twist;
         pose.local[hand] = (upper_w * pose.local[forearm]).inverse() * hand_rot;
         for k in 0..15 {
@@ -91,18 +138,107 @@ pub fn solve(rig: &Rig, frame: &MotionFrame) -> BodyPose {
         let world = rig.world(&pose);
         let out = if side == 0 { -1.0 } else { 1.0 };
         let foot_rot = rotation(&frame.feet[side]);
-        let limb = TwoBone {
+        let mut limb = TwoBone {
             root: world[hip].0,
             lengths: [rig.link_length(hip + 1), rig.link_length(foot)],
-            pole: Vector3::new(0.2 * out, 1.0, 0.0),
+            pole: knee_forward(out),
             hinge_rest: -Vector3::x(),
         };
-        let (upper_w, lower_w, bend) = limb.solve(position(&frame.feet[side], rest[foot]));
+        let ankle = position(&frame.feet[side], rest[foot]);
+        if let Some(angle) = carry.knee[side].filter(|a| a.is_finite()) {
+            limb.pole = knee_pole_at(&limb, angle, out);
+        }
+        let (upper_w, lower_w, bend) = limb.solve(ankle);
         pose.local[hip] = world[HIPS].1.inverse() * upper_w;
         pose.local[hip + 1] = bend;
         pose.local[foot] = lower_w.inverse() * foot_rot;
     }
     pose
+}
+
+/// How far the knee, thigh and shin stay from a drum, m.
+pub const KNEE_CLEARANCE_M: f32 = 0.01;
+/// Radii of the knee, thigh and shin the clearance keeps out of the drums, m (those of
+/// `eval::motion_quality`).
+const KNEE_R: f32 = 0.06;
+const THIGH_R: f32 = 0.075;
+const SHIN_R: f32 = 0.05;
+
+/// The knee's pole for `limb` reaching `ankle`, turned `angle` radians from forward and a
+/// little out toward the leg's side (`out`: -1 left, 1 right; negative angles turn in).
+fn knee_pole_at(limb: &TwoBone, angle: f32, out: f32) -> Vector3<f32> {
+    limb.pole.normalize() * angle.cos() + Vector3::new(out, 0.0, 0.0) * angle.sin()
+}
+
+/// How far the knee, thigh and shin of `limb` reaching `ankle` with `pole` reach into the
+/// deepest of `shells` (negative: their clearance).
+fn leg_depth(limb: &TwoBone, ankle: Vector3<f32>, pole: Vector3<f32>, shells: &[Shell]) -> f32 {
+    let knee = TwoBone { pole, ..*limb }.middle(ankle);
+    shells
+        .iter()
+        .map(|s| {
+            s.depth_of(knee, knee, KNEE_R)
+                .max(s.depth_of(limb.root, knee, THIGH_R))
+                .max(s.depth_of(knee, ankle, SHIN_R))
+        })
+        .fold(f32::NEG_INFINITY, f32::max)
+}
+
+/// Each knee's turn from forward for a whole motion: the smallest (5 degrees at a time, out
+/// first, up to straight to either side) with which the knee, thigh and shin clear every
+/// drum by [`KNEE_CLEARANCE_M`] in every tenth frame; the clearest when none does. One turn
+/// per take: a knee that swung over mid-song would pop.
+pub fn knee_angles(rig: &Rig, motion: &Motion, shells: &[Shell]) -> [Option<f32>; 2] {
+    if shells.is_empty() || motion.frames.is_empty() {
+        return [None; 2];
+    }
+    let rest = rig.rest_positions();
+    // Each sampled frame's hip joints (where the chest put the hips) and ankles.
+    let legs: Vec<[(Vector3<f32>, Vector3<f32>); 2]> = motion
+        .frames
+        .iter()
+        .step_by(10)
+        .map(|f| {
+            let world = rig.world(&solve(rig, f));
+            std::array::from_fn(|side| (world[UPPER_LEG[side]].0, position(&f.feet[side], rest[FOOT[side]])))
+        })
+        .collect();
+    let step = 5f32.to_radians();
+    std::array::from_fn(|side| {
+        let out = if side == 0 { -1.0 } else { 1.0 };
+        let lengths = [rig.link_length(UPPER_LEG[side] + 1), rig.link_length(FOOT[side])];
+        let worst = |angle: f32| {
+            legs.iter()
+                .map(|l| {
+                    let (root, ankle) = l[side];
+                    let limb = TwoBone { root, lengths, pole: knee_forward(out), hinge_rest: -Vector3::x() };
+                    leg_depth(&limb, ankle, knee_pole_at(&limb, angle, out), shells)
+                })
+                .fold(f32::NEG_INFINITY, f32::max)
+        };
+        let mut best = (0.0, f32::INFINITY);
+        for k in 0..=18 {
+            for turn in [1.0, -1.0] {
+                if k == 0 && turn < 0.0 {
+                    continue;
+                }
+                let a = turn * k as f32 * step;
+                let depth = worst(a);
+                if depth <= -KNEE_CLEARANCE_M {
+                    return Some(a);
+                }
+                if depth < best.1 {
+                    best = (a, depth);
+                }
+            }
+        }
+        Some(best.0)
+    })
+}
+
+/// A knee's default pole: forward and a little out to its side `out`.
+fn knee_forward(out: f32) -> Vector3<f32> {
+    Vector3::new(0.2 * out, 1.0, 0.0)
 }
 
 /// A target's rotation, identity when it is not a usable quaternion.
@@ -153,6 +289,26 @@ impl TwoBone {
     /// World rotations of the upper and lower bones that put the end joint at `target` (or
     /// as near as the limb reaches), and the middle joint's local rotation.
     fn solve(&self, target: Vector3<f32>) -> (UnitQuaternion<f32>, UnitQuaternion<f32>, UnitQuaternion<f32>) {
+        let (u, perp, dir, d) = self.geometry(target);
+        let [a, b] = self.lengths;
+        let mid = self.root + u * a;
+        let f = (self.root + dir * d - mid) / b;
+        let hinge = perp.cross(&dir).normalize();
+        let upper = frame_rotation(u, hinge, self.hinge_rest);
+        let bend_angle = u.dot(&f).clamp(-1.0, 1.0).acos();
+        let axis = nalgebra::Unit::new_normalize(self.hinge_rest);
+        let bend = UnitQuaternion::from_axis_angle(&axis, bend_angle);
+        (upper, upper * bend, bend)
+    }
+
+    /// Where the middle joint (elbow, knee) lands for `target`.
+    fn middle(&self, target: Vector3<f32>) -> Vector3<f32> {
+        self.root + self.geometry(target).0 * self.lengths[0]
+    }
+
+    /// The upper bone's direction, the unit pole across the limb, the limb's direction and
+    /// its reached length.
+    fn geometry(&self, target: Vector3<f32>) -> (Vector3<f32>, Vector3<f32>, Vector3<f32>, f32) {
         let [a, b] = self.lengths;
         let to = target - self.root;
         let dir = if to.norm() > 1e-6 { to.normalize() } else { -Vector3::z() };
@@ -170,15 +326,7 @@ impl TwoBone {
         // Law of cosines: the upper bone leaves `dir` by `alpha` towards the pole.
         let cos_alpha = ((a * a + d * d - b * b) / (2.0 * a * d)).clamp(-1.0, 1.0);
         let alpha = cos_alpha.acos();
-        let u = dir * alpha.cos() + perp * alpha.sin();
-        let mid = self.root + u * a;
-        let f = (self.root + dir * d - mid) / b;
-        let hinge = perp.cross(&dir).normalize();
-        let upper = frame_rotation(u, hinge, self.hinge_rest);
-        let bend_angle = u.dot(&f).clamp(-1.0, 1.0).acos();
-        let axis = nalgebra::Unit::new_normalize(self.hinge_rest);
-        let bend = UnitQuaternion::from_axis_angle(&axis, bend_angle);
-        (upper, upper * bend, bend)
+        (dir * alpha.cos() + perp * alpha.sin(), perp, dir, d)
     }
 }
 

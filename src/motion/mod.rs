@@ -12,6 +12,7 @@ pub mod mocap;
 pub mod pipeline;
 pub mod plan;
 pub mod rig;
+pub mod shells;
 pub mod track;
 pub mod upper;
 pub mod window;

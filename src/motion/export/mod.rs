@@ -78,8 +78,7 @@ pub fn stage_all_named(
     song: &str,
     set: &mut OutputSet,
 ) -> Result<Paths, ExportError> {
-    let mut baked = Baked::new(motion, rig)?;
-    baked.kit = kit;
+    let mut baked = Baked::in_kit(motion, rig, kit)?;
     baked.names = rig.named(names).bones.into_iter().map(|b| b.name).collect();
     let paths = Paths {
         json: dir.join(format!("{song}.motion.json")),
@@ -132,6 +131,12 @@ impl<'a> Baked<'a> {
     /// Check the motion (a positive finite frame rate, at least one frame, 52 face weights
     /// per frame) and solve every frame's pose.
     pub fn new(motion: &'a Motion, rig: &'a Rig) -> Result<Baked<'a>, ExportError> {
+        Baked::in_kit(motion, rig, None)
+    }
+
+    /// [`Self::new`] beside `kit`: the knees are kept out of its drums, and the glTF scene
+    /// shows it.
+    pub fn in_kit(motion: &'a Motion, rig: &'a Rig, kit: Option<&'a Kit>) -> Result<Baked<'a>, ExportError> {
         let bad = |reason: String| Err(ExportError::BadMotion { reason });
         if !(motion.fps.is_finite() && motion.fps > 0.0) {
             return bad(format!("fps = {} is not a positive number", motion.fps));
@@ -145,7 +150,8 @@ impl<'a> Baked<'a> {
             }
         }
         let names = rig.bones.iter().map(|b| b.name.clone()).collect();
-        Ok(Baked { motion, rig, poses: body_ik::solve_motion(rig, motion), kit: None, names })
+        let shells = kit.map(super::shells::shells).unwrap_or_default();
+        Ok(Baked { motion, rig, poses: body_ik::solve_motion_in(rig, motion, &shells), kit, names })
     }
 
     /// Time of frame `i`, s.

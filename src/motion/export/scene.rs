@@ -193,7 +193,7 @@ const STICK_LENGTH_M: f32 = 0.406;
 
 /// Shell depth as drawn: a kick lies on its side (about 40 cm deep), a snare (a drum with
 /// wires) is shallow, toms deepen with their size.
-fn drum_depth(p: &Piece) -> f32 {
+pub fn drum_depth(p: &Piece) -> f32 {
     if p.normal[2].abs() < 0.5 {
         0.40
     } else if p.wires.is_some() {

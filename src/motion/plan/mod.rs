@@ -17,10 +17,12 @@
 //! The stroke is made with the wrist: the grip follows the predicted hand moved by the
 //! smooth offset alone, and the stick turns about it until the tip is where the stroke
 //! puts it (on the strike point at the hit). So the hand keeps the model's timing rather
-//! than stopping with the tip at every contact. Positions come from the kit, so another
+//! than stopping with the tip at every contact. The predicted poses are first smoothed
+//! (`smooth.rs`), so that a hand never jumps across the kit between two frames. Positions come from the kit, so another
 //! layout moves every strike.
 
 pub mod assign;
+pub mod smooth;
 pub mod stroke;
 
 pub use assign::{assign_hands, AssignSettings, Assignment};

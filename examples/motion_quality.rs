@@ -1,0 +1,131 @@
+//! What an animator checks, over Groove MIDI takes (issue 16; `src/eval/motion_quality.rs`):
+//! `cargo run --release --example motion_quality [TAKE.mid ...]` (default: every sixth
+//! validation take). `KIT=rearranged` plays another kit; `JSON=1` prints each take's figures.
+
+use drumsim::eval::motion_quality::{measure, MotionQuality, PlayedNote};
+use drumsim::kit::Kit;
+use drumsim::midi::{read_file, NoteMap, ReadOptions};
+use drumsim::motion::body_ik::solve_motion_in;
+use drumsim::motion::hands::HandModel;
+use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
+use drumsim::motion::rig::Rig;
+use drumsim::motion::shells::shells;
+use std::path::Path;
+
+fn main() {
+    let mut takes: Vec<String> = std::env::args().skip(1).collect();
+    if takes.is_empty() {
+        let info = std::fs::read_to_string("data/gmd/info.csv").expect("data/gmd/info.csv");
+        takes = info
+            .lines()
+            .skip(1)
+            .filter(|l| l.ends_with(",validation"))
+            .step_by(6)
+            .map(|l| format!("data/gmd/{}", l.split(',').nth(7).unwrap()))
+            .collect();
+    }
+    let map = NoteMap::builtin("roland-td").unwrap();
+    let kit = Kit::load(Path::new(&std::env::var("KIT").unwrap_or("default".into()))).unwrap();
+    let (model, library, rig) = (HandModel::shipped(), shipped_library().unwrap(), Rig::default());
+    let mut all = MotionQuality::default();
+    let mut chest = Vec::new();
+    for take in &takes {
+        let perf = read_file(Path::new(take), &ReadOptions { channel: 10 }).unwrap();
+        let predicted = model_hands(&model, &perf, &map);
+        let planned = perform_planned(&perf, &map, &kit, &predicted, &library).unwrap();
+        let notes: Vec<PlayedNote> = planned
+            .notes
+            .iter()
+            .zip(&planned.report.hands)
+            .filter_map(|(n, h)| {
+                h.map(|hand| PlayedNote { time_s: n.time_s, piece: n.piece, velocity: n.velocity, hand })
+            })
+            .collect();
+        let poses = solve_motion_in(&rig, &planned.motion, &shells(&kit));
+        if std::env::var_os("POPS").is_some() {
+            let fr = &planned.motion.frames;
+            for f in 1..fr.len() {
+                for h in 0..2 {
+                    let d: f32 =
+                        (0..3).map(|i| (fr[f].hands[h].pos[i] - fr[f - 1].hands[h].pos[i]).powi(2)).sum::<f32>().sqrt();
+                    let pd: f32 = (0..3)
+                        .map(|i| (predicted[f][h].pos[i] - predicted[f - 1][h].pos[i]).powi(2))
+                        .sum::<f32>()
+                        .sqrt();
+                    let tp = |f: usize| planned.hands.tip(h, f as f64 / 60.0);
+                    let td: f32 = (0..3).map(|i| (tp(f)[i] - tp(f - 1)[i]).powi(2)).sum::<f32>().sqrt();
+                    if d > 0.10 {
+                        println!("    predicted grip step {:.1} cm, planned tip step {:.1} cm", pd * 100.0, td * 100.0);
+                        let t = f as f64 / 60.0;
+                        let near: Vec<String> = notes
+                            .iter()
+                            .filter(|n| n.hand == h && (n.time_s - t).abs() < 0.25)
+                            .map(|n| {
+                                format!("{:+.0}ms {} v{}", (n.time_s - t) * 1e3, kit.pieces[n.piece].id, n.velocity)
+                            })
+                            .collect();
+                        println!("  pop {take} {t:.3}s hand {h} {:.1} cm; its notes {near:?}", d * 100.0);
+                    }
+                }
+            }
+        }
+        if std::env::var_os("KNEES").is_some() {
+            let w = rig.world(&poses[poses.len() / 2]);
+            let r = drumsim::motion::rig::UPPER_LEG;
+            println!(
+                "  hips {:?} knees {:?} {:?} ankles {:?} {:?} toes {:?} {:?}",
+                w[0].0,
+                w[r[0] + 1].0,
+                w[r[1] + 1].0,
+                w[r[0] + 2].0,
+                w[r[1] + 2].0,
+                w[r[0] + 3].0,
+                w[r[1] + 3].0
+            );
+        }
+        if std::env::var_os("HANDJUMP").is_some() {
+            let fr = &planned.motion.frames;
+            for f in 1..fr.len() {
+                for h in 0..2 {
+                    let a = fr[f].hands[h].rotation().angle_to(&fr[f - 1].hands[h].rotation()).to_degrees();
+                    let w = rig.world(&poses[f]);
+                    let w0 = rig.world(&poses[f - 1]);
+                    let fa = w[drumsim::motion::rig::HAND[h] - 1]
+                        .1
+                        .angle_to(&w0[drumsim::motion::rig::HAND[h] - 1].1)
+                        .to_degrees();
+                    let ua = w[drumsim::motion::rig::HAND[h] - 2]
+                        .1
+                        .angle_to(&w0[drumsim::motion::rig::HAND[h] - 2].1)
+                        .to_degrees();
+                    let la = poses[f].local[drumsim::motion::rig::HAND[h]]
+                        .angle_to(&poses[f - 1].local[drumsim::motion::rig::HAND[h]])
+                        .to_degrees();
+                    if la > 45.0 {
+                        println!("  {take} f {f} hand {h}: target turn {a:.0}, forearm world {fa:.0}, upper arm world {ua:.0}, hand local {la:.0}");
+                    }
+                }
+            }
+        }
+        let q = measure(&rig, &planned.motion, &poses, &kit, &notes);
+        let toms = notes.iter().any(|n| kit.pieces[n.piece].id.contains("tom"));
+        if toms {
+            chest.extend(q.chest_follows_hands);
+        }
+        if std::env::var_os("JSON").is_some() {
+            println!("{}", serde_json::json!({"take": take, "toms": toms, "quality": q}));
+        } else {
+            println!(
+                "{take}: turn {:.0} deg ({} over 45), wrist {:.1} cm ({} over 6), body {:.1} cm ({} frames), kit {:.1} cm ({} frames), through cymbals {}, legs {:.1} cm ({} frames), chest {:?}, ghost/accent {:?}, blinks {:.1}/min",
+                q.max_turn_deg, q.turns_over_45, q.max_wrist_step_m * 100.0, q.wrist_steps_over_6cm,
+                q.deepest_in_body_m * 100.0, q.frames_in_body, q.deepest_arm_in_kit_m * 100.0, q.frames_arm_in_kit,
+                q.frames_stick_through_cymbal, q.deepest_leg_in_kit_m * 100.0, q.frames_leg_in_kit,
+                q.chest_follows_hands, q.ghost_over_accent, q.blinks_per_min
+            );
+        }
+        all.merge(&q);
+    }
+    chest.sort_by(f32::total_cmp);
+    println!("{} takes, {} frames:\n{}", takes.len(), all.frames, serde_json::to_string_pretty(&all).unwrap());
+    println!("chest-hands correlation over takes with toms: {chest:?}");
+}

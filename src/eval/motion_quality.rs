@@ -1,0 +1,414 @@
+//! What an animator checks in a drummer's motion (issue 16): pops, flips, limbs through the
+//! body or the kit, a torso that turns with the hands, ghost notes low, blinks.
+//!
+//! The body is the 57-bone rig posed by the whole-body IK; the proxies below are what the
+//! measures treat as solid. Capsules (a segment and a radius, metres):
+//! - torso: hips joint to neck joint, 0.12; thighs: hip to knee, 0.075;
+//! - upper arm: shoulder ball to elbow, 0.045; forearm: elbow to wrist, 0.035; hand: wrist to
+//!   grip, 0.04; stick: butt to tip (a 16-inch stick held 28 cm from its tip), 0.008;
+//! - knee: a ball of 0.06 at the knee joint; shin: knee to ankle, 0.05; foot: ankle to toe,
+//!   0.045.
+//!
+//! The kit's drums are solid cylinders: the head's disc (the kit file's radius) down to the
+//! shell depth the exports draw. Cymbals are discs a stick may not pass through.
+
+use crate::kit::{Kit, PieceKind};
+use crate::motion::rig::{BodyPose, Rig, FOOT, HAND, HIPS, NECK, SPINE, UPPER_LEG};
+use crate::motion::shells::shells;
+use crate::motion::track::ARKIT_NAMES;
+use crate::motion::Motion;
+use nalgebra::Vector3;
+use serde::Serialize;
+
+type V3 = Vector3<f32>;
+
+/// Radii of the proxies, m.
+pub const TORSO_R: f32 = 0.12;
+pub const THIGH_R: f32 = 0.075;
+pub const UPPER_ARM_R: f32 = 0.045;
+pub const FOREARM_R: f32 = 0.035;
+pub const HAND_R: f32 = 0.04;
+pub const STICK_R: f32 = 0.008;
+pub const KNEE_R: f32 = 0.06;
+pub const SHIN_R: f32 = 0.05;
+pub const FOOT_R: f32 = 0.045;
+/// The arm proxies' names, per side.
+const ARM_PARTS: [[&str; 4]; 2] = [
+    ["left upper arm", "left forearm", "left hand", "left stick"],
+    ["right upper arm", "right forearm", "right hand", "right stick"],
+];
+/// From the grip to the stick's butt, m (a 40.6 cm stick held 28 cm from its tip).
+const GRIP_TO_BUTT_M: f32 = 0.126;
+
+/// A hand note as the measures need it: when, which kit piece, how loud, which hand.
+#[derive(Debug, Clone, Copy)]
+pub struct PlayedNote {
+    pub time_s: f64,
+    pub piece: usize,
+    pub velocity: u8,
+    pub hand: usize,
+}
+
+/// The figures of one take (or of several, merged with [`MotionQuality::merge`]).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct MotionQuality {
+    pub frames: usize,
+    /// Largest turn of any bone between consecutive frames, degrees, and where.
+    pub max_turn_deg: f32,
+    pub max_turn_at: String,
+    /// Bone-frames turning more than 45 degrees, and by bone.
+    pub turns_over_45: usize,
+    pub turns_over_45_by_bone: std::collections::BTreeMap<String, usize>,
+    /// Largest wrist travel between consecutive frames, m, and frames over 6 cm.
+    pub max_wrist_step_m: f32,
+    pub wrist_steps_over_6cm: usize,
+    /// Deepest stick, hand or arm proxy inside the torso or a thigh, m, where, and frames
+    /// with one deeper than 1 cm.
+    pub deepest_in_body_m: f32,
+    pub deepest_in_body_at: String,
+    pub frames_in_body: usize,
+    /// Deepest stick, hand or arm proxy inside a drum, m, where, and frames deeper than 1 cm.
+    pub deepest_arm_in_kit_m: f32,
+    pub deepest_arm_in_kit_at: String,
+    pub frames_arm_in_kit: usize,
+    /// Frames with a stick passing through a cymbal.
+    pub frames_stick_through_cymbal: usize,
+    /// Deepest knee, shin or foot inside a drum, m, where, and frames with one inside.
+    pub deepest_leg_in_kit_m: f32,
+    pub deepest_leg_in_kit_at: String,
+    pub frames_leg_in_kit: usize,
+    /// Pearson correlation of the chest's facing (its forward axis' lateral component) with
+    /// the hands' mean lateral position; None without movement in either.
+    pub chest_follows_hands: Option<f32>,
+    /// Median lift of the stick tip above the struck piece before ghost notes (velocity
+    /// under 40) and accents (over 100), m, and their ratio.
+    pub ghost_lift_m: Option<f32>,
+    pub accent_lift_m: Option<f32>,
+    pub ghost_over_accent: Option<f32>,
+    /// Blinks per minute (the eyes' blink weight rising through 0.5).
+    pub blinks_per_min: f32,
+    #[serde(skip)]
+    ghost_lifts: Vec<f32>,
+    #[serde(skip)]
+    accent_lifts: Vec<f32>,
+    #[serde(skip)]
+    blinks: usize,
+    #[serde(skip)]
+    seconds: f64,
+}
+
+/// A capsule: segment `a`-`b`, radius `r`.
+#[derive(Debug, Clone, Copy)]
+struct Capsule {
+    a: V3,
+    b: V3,
+    r: f32,
+    name: &'static str,
+}
+
+/// Closest distance between segments `p0`-`p1` and `q0`-`q1`.
+fn segment_distance(p0: V3, p1: V3, q0: V3, q1: V3) -> f32 {
+    let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
+    let (a, e, f) = (d1.dot(&d1), d2.dot(&d2), d2.dot(&r));
+    let (s, t) = if a < 1e-12 && e < 1e-12 {
+        (0.0, 0.0)
+    } else if a < 1e-12 {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = d1.dot(&r);
+        if e < 1e-12 {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = d1.dot(&d2);
+            let denom = a * e - b * b;
+            let mut s = if denom > 1e-12 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+            let mut t = (b * s + f) / e;
+            if t < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, t)
+        }
+    };
+    ((p0 + d1 * s) - (q0 + d2 * t)).norm()
+}
+
+/// How deep capsule `c` reaches into capsule `o` (negative: apart).
+fn overlap(c: &Capsule, o: &Capsule) -> f32 {
+    c.r + o.r - segment_distance(c.a, c.b, o.a, o.b)
+}
+
+/// A cymbal as a disc.
+struct Disc {
+    c: V3,
+    n: V3,
+    r: f32,
+}
+
+impl Disc {
+    /// True when segment `a`-`b` crosses the disc (its ends on opposite sides, the crossing
+    /// inside the radius).
+    fn crossed_by(&self, a: V3, b: V3) -> bool {
+        let (ha, hb) = ((a - self.c).dot(&self.n), (b - self.c).dot(&self.n));
+        if ha * hb >= 0.0 {
+            return false;
+        }
+        let p = a + (b - a) * (ha / (ha - hb));
+        (p - self.c).norm() < self.r
+    }
+}
+
+fn pearson(x: &[f32], y: &[f32]) -> Option<f32> {
+    let n = x.len().min(y.len()) as f64;
+    if n < 3.0 {
+        return None;
+    }
+    let mx = x.iter().map(|&v| v as f64).sum::<f64>() / n;
+    let my = y.iter().map(|&v| v as f64).sum::<f64>() / n;
+    let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+    for (&a, &b) in x.iter().zip(y) {
+        let (a, b) = (a as f64 - mx, b as f64 - my);
+        sxy += a * b;
+        sxx += a * a;
+        syy += b * b;
+    }
+    (sxx > 1e-12 && syy > 1e-12).then(|| (sxy / (sxx * syy).sqrt()) as f32)
+}
+
+fn median(v: &mut [f32]) -> Option<f32> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f32::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+fn set_max(best: &mut f32, at: &mut String, value: f32, place: impl FnOnce() -> String) {
+    if value > *best {
+        *best = value;
+        *at = place();
+    }
+}
+
+/// Measure `motion` (posed as `poses` on `rig`) on `kit`, with its hand `notes`.
+pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes: &[PlayedNote]) -> MotionQuality {
+    let fps = motion.fps as f32;
+    let mut q = MotionQuality {
+        frames: poses.len(),
+        seconds: poses.len() as f64 / motion.fps,
+        deepest_in_body_m: f32::NEG_INFINITY,
+        deepest_arm_in_kit_m: f32::NEG_INFINITY,
+        deepest_leg_in_kit_m: f32::NEG_INFINITY,
+        ..Default::default()
+    };
+    let drums = shells(kit);
+    let discs: Vec<Disc> = kit
+        .pieces
+        .iter()
+        .filter(|p| p.kind == PieceKind::Plate)
+        .map(|p| Disc { c: V3::from(p.position_m), n: V3::from(p.normal).normalize(), r: p.radius_m })
+        .collect();
+    let names: Vec<&str> = rig.bones.iter().map(|b| b.name.as_str()).collect();
+    let blink = ARKIT_NAMES.iter().position(|n| *n == "eyeBlinkLeft");
+    let (mut facing, mut lateral) = (Vec::with_capacity(poses.len()), Vec::with_capacity(poses.len()));
+    let mut prev_world: Option<Vec<(V3, nalgebra::UnitQuaternion<f32>)>> = None;
+    let mut tips: Vec<[V3; 2]> = Vec::with_capacity(poses.len());
+    let mut was_blinking = false;
+    for (f, (pose, frame)) in poses.iter().zip(&motion.frames).enumerate() {
+        let w = rig.world(pose);
+        let at = |what: &str| format!("{what} at frame {f} ({:.2} s)", f as f32 / fps);
+        if f > 0 {
+            let before = &poses[f - 1];
+            for (b, (q1, q0)) in pose.local.iter().zip(&before.local).enumerate() {
+                let deg = q1.angle_to(q0).to_degrees();
+                if deg > 45.0 {
+                    q.turns_over_45 += 1;
+                    *q.turns_over_45_by_bone.entry(names[b].to_string()).or_default() += 1;
+                }
+                set_max(&mut q.max_turn_deg, &mut q.max_turn_at, deg, || at(names[b]));
+            }
+        }
+        if let Some(pw) = &prev_world {
+            for side in 0..2 {
+                let step = (w[HAND[side]].0 - pw[HAND[side]].0).norm();
+                if step > 0.06 {
+                    q.wrist_steps_over_6cm += 1;
+                }
+                q.max_wrist_step_m = q.max_wrist_step_m.max(step);
+            }
+        }
+        // Proxies.
+        let p = |i: usize| w[i].0;
+        let torso = Capsule { a: p(HIPS), b: p(NECK[0]), r: TORSO_R, name: "torso" };
+        let legs: Vec<[Capsule; 3]> = (0..2)
+            .map(|s| {
+                let (hip, knee, ankle, toe) = (p(UPPER_LEG[s]), p(UPPER_LEG[s] + 1), p(FOOT[s]), p(FOOT[s] + 1));
+                [
+                    Capsule { a: hip, b: knee, r: THIGH_R, name: ["left thigh", "right thigh"][s] },
+                    Capsule { a: knee, b: ankle, r: SHIN_R, name: ["left shin", "right shin"][s] },
+                    Capsule { a: ankle, b: toe, r: FOOT_R, name: ["left foot", "right foot"][s] },
+                ]
+            })
+            .collect();
+        let mut arms: Vec<Capsule> = Vec::with_capacity(8);
+        let mut frame_tips = [V3::zeros(); 2];
+        for s in 0..2 {
+            let (ball, elbow, wrist) = (p(HAND[s] - 2), p(HAND[s] - 1), p(HAND[s]));
+            let grip = &frame.hands[s];
+            let tip = V3::from(grip.stick_tip());
+            let butt = V3::from(grip.apply([0.0, -GRIP_TO_BUTT_M, 0.0]));
+            let g = V3::from(grip.pos);
+            frame_tips[s] = tip;
+            let name = ARM_PARTS[s];
+            arms.push(Capsule { a: ball, b: elbow, r: UPPER_ARM_R, name: name[0] });
+            arms.push(Capsule { a: elbow, b: wrist, r: FOREARM_R, name: name[1] });
+            arms.push(Capsule { a: wrist, b: g, r: HAND_R, name: name[2] });
+            arms.push(Capsule { a: butt, b: tip, r: STICK_R, name: name[3] });
+        }
+        tips.push(frame_tips);
+        // Arms against the body: the upper arm hangs from the torso, so only the thighs.
+        let mut worst_body = f32::NEG_INFINITY;
+        for a in &arms {
+            let torso_too = !a.name.ends_with("upper arm");
+            for o in legs.iter().map(|l| &l[0]).chain(torso_too.then_some(&torso)) {
+                let d = overlap(a, o);
+                worst_body = worst_body.max(d);
+                set_max(&mut q.deepest_in_body_m, &mut q.deepest_in_body_at, d, || {
+                    at(&format!("{} in {}", a.name, o.name))
+                });
+            }
+        }
+        if worst_body > 0.01 {
+            q.frames_in_body += 1;
+        }
+        // Arms, hands and sticks against the drums; sticks through cymbals.
+        let mut worst_kit = f32::NEG_INFINITY;
+        for a in &arms {
+            for d in &drums {
+                let depth = d.depth_of(a.a, a.b, a.r);
+                worst_kit = worst_kit.max(depth);
+                set_max(&mut q.deepest_arm_in_kit_m, &mut q.deepest_arm_in_kit_at, depth, || {
+                    at(&format!("{} in {}", a.name, d.id))
+                });
+            }
+        }
+        if worst_kit > 0.01 {
+            q.frames_arm_in_kit += 1;
+        }
+        if arms.iter().filter(|a| a.name.ends_with("stick")).any(|a| discs.iter().any(|d| d.crossed_by(a.a, a.b))) {
+            q.frames_stick_through_cymbal += 1;
+        }
+        // Knees, shins and feet against the drums.
+        let mut worst_leg = f32::NEG_INFINITY;
+        for (s, l) in legs.iter().enumerate() {
+            let knee = Capsule { a: l[0].b, b: l[0].b, r: KNEE_R, name: ["left knee", "right knee"][s] };
+            for k in [knee, l[1], l[2]] {
+                for d in &drums {
+                    let depth = d.depth_of(k.a, k.b, k.r);
+                    worst_leg = worst_leg.max(depth);
+                    set_max(&mut q.deepest_leg_in_kit_m, &mut q.deepest_leg_in_kit_at, depth, || {
+                        at(&format!("{} in {}", k.name, d.id))
+                    });
+                }
+            }
+        }
+        if worst_leg > 0.0 {
+            q.frames_leg_in_kit += 1;
+        }
+        // The chest's facing and the hands' lateral place.
+        let forward = w[SPINE[2]].1 * V3::y();
+        facing.push(forward.x);
+        lateral.push(0.5 * (w[HAND[0]].0.x + w[HAND[1]].0.x));
+        // Blinks.
+        if let Some(b) = blink {
+            let blinking = frame.face.get(b).is_some_and(|&v| v > 0.5);
+            if blinking && !was_blinking {
+                q.blinks += 1;
+            }
+            was_blinking = blinking;
+        }
+        prev_world = Some(w);
+    }
+    q.chest_follows_hands = pearson(&facing, &lateral);
+    // The lift before each note: the tip's highest point above the struck piece since the
+    // hand's previous note (at most 0.5 s back).
+    let mut last = [f64::NEG_INFINITY; 2];
+    for n in notes {
+        let Some(piece) = kit.pieces.get(n.piece) else { continue };
+        let (c, nrm) = (V3::from(piece.position_m), V3::from(piece.normal).normalize());
+        let from = last[n.hand].max(n.time_s - 0.5);
+        last[n.hand] = n.time_s;
+        let (f0, f1) = ((from * motion.fps).ceil() as usize, (n.time_s * motion.fps).round() as usize);
+        let lift = (f0..=f1.min(tips.len().saturating_sub(1)))
+            .map(|f| (tips[f][n.hand] - c).dot(&nrm))
+            .fold(f32::NEG_INFINITY, f32::max);
+        if !lift.is_finite() {
+            continue;
+        }
+        if n.velocity < 40 {
+            q.ghost_lifts.push(lift);
+        } else if n.velocity > 100 {
+            q.accent_lifts.push(lift);
+        }
+    }
+    q.finish();
+    q
+}
+
+impl MotionQuality {
+    fn finish(&mut self) {
+        self.ghost_lift_m = median(&mut self.ghost_lifts.clone());
+        self.accent_lift_m = median(&mut self.accent_lifts.clone());
+        self.ghost_over_accent = self.ghost_lift_m.zip(self.accent_lift_m).map(|(g, a)| g / a.max(1e-6));
+        self.blinks_per_min = if self.seconds > 0.0 { (self.blinks as f64 * 60.0 / self.seconds) as f32 } else { 0.0 };
+    }
+
+    /// Fold `other` (another take) into these figures: maxima, counts, pooled medians and
+    /// rates; the chest correlation is kept per take by the caller.
+    pub fn merge(&mut self, other: &MotionQuality) {
+        self.frames += other.frames;
+        self.seconds += other.seconds;
+        self.turns_over_45 += other.turns_over_45;
+        for (bone, n) in &other.turns_over_45_by_bone {
+            *self.turns_over_45_by_bone.entry(bone.clone()).or_default() += n;
+        }
+        self.wrist_steps_over_6cm += other.wrist_steps_over_6cm;
+        self.frames_in_body += other.frames_in_body;
+        self.frames_arm_in_kit += other.frames_arm_in_kit;
+        self.frames_stick_through_cymbal += other.frames_stick_through_cymbal;
+        self.frames_leg_in_kit += other.frames_leg_in_kit;
+        self.blinks += other.blinks;
+        let take = |mine: &mut f32, at: &mut String, theirs: f32, their_at: &String| {
+            if theirs > *mine || at.is_empty() {
+                *mine = theirs;
+                *at = their_at.clone();
+            }
+        };
+        take(&mut self.max_turn_deg, &mut self.max_turn_at, other.max_turn_deg, &other.max_turn_at);
+        take(
+            &mut self.deepest_in_body_m,
+            &mut self.deepest_in_body_at,
+            other.deepest_in_body_m,
+            &other.deepest_in_body_at,
+        );
+        take(
+            &mut self.deepest_arm_in_kit_m,
+            &mut self.deepest_arm_in_kit_at,
+            other.deepest_arm_in_kit_m,
+            &other.deepest_arm_in_kit_at,
+        );
+        take(
+            &mut self.deepest_leg_in_kit_m,
+            &mut self.deepest_leg_in_kit_at,
+            other.deepest_leg_in_kit_m,
+            &other.deepest_leg_in_kit_at,
+        );
+        self.max_wrist_step_m = self.max_wrist_step_m.max(other.max_wrist_step_m);
+        self.ghost_lifts.extend_from_slice(&other.ghost_lifts);
+        self.accent_lifts.extend_from_slice(&other.accent_lifts);
+        self.finish();
+    }
+}
