@@ -122,10 +122,10 @@ pub fn perform_planned(
     };
     let assignment = plan::assign_hands(&notes, &tip, &AssignSettings::default());
     let planned = plan::plan_hands(predicted, FPS, &notes, &assignment, StrokeSettings::default());
-    // The animation's hands are planned the same way over the smoothed prediction (the
-    // body's targets keep the prediction itself: its strokes were tuned on it, and smoothed
-    // ones made 1.8 times the stray contacts on eight validation takes).
-    let smoothed = plan::smooth::smooth_hands(predicted, plan::smooth::SMOOTH_SIGMA_FRAMES);
+    // The animation's hands are planned the same way over the prediction smoothed where it
+    // jumps (the body's targets keep the prediction itself: its strokes were tuned on it,
+    // and smoothed ones made 1.8 times the stray contacts on eight validation takes).
+    let smoothed = plan::smooth::smooth_jumps(predicted);
     let hands = plan::plan_hands(&smoothed, FPS, &notes, &assignment, StrokeSettings::default()).sample(FPS, frames);
     // Upper body and face.
     let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
