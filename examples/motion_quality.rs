@@ -70,6 +70,8 @@ fn main() {
             }
         }
         if std::env::var_os("KNEES").is_some() {
+            let a = drumsim::motion::body_ik::knee_angles(&rig, &planned.motion, &shells(&kit));
+            println!("  knee turns {:?} degrees", a.map(|x| x.map(f32::to_degrees)));
             let w = rig.world(&poses[poses.len() / 2]);
             let r = drumsim::motion::rig::UPPER_LEG;
             println!(

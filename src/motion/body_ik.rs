@@ -156,12 +156,11 @@ pub fn solve_after(rig: &Rig, frame: &MotionFrame, carry: &mut Carry) -> BodyPos
     pose
 }
 
-/// How far the knee, thigh and shin stay from a drum, m.
-pub const KNEE_CLEARANCE_M: f32 = 0.01;
-/// Radii of the knee, thigh and shin the clearance keeps out of the drums, m (those of
+/// How far the knee and shin stay from a drum, m.
+pub const KNEE_CLEARANCE_M: f32 = 0.0;
+/// Radii of the knee and shin the clearance keeps out of the drums, m (those of
 /// `eval::motion_quality`).
 const KNEE_R: f32 = 0.06;
-const THIGH_R: f32 = 0.075;
 const SHIN_R: f32 = 0.05;
 
 /// The knee's pole for `limb` reaching `ankle`, turned `angle` radians from forward and a
@@ -170,22 +169,18 @@ fn knee_pole_at(limb: &TwoBone, angle: f32, out: f32) -> Vector3<f32> {
     limb.pole.normalize() * angle.cos() + Vector3::new(out, 0.0, 0.0) * angle.sin()
 }
 
-/// How far the knee, thigh and shin of `limb` reaching `ankle` with `pole` reach into the
+/// How far the knee and shin of `limb` reaching `ankle` with `pole` reach into the
 /// deepest of `shells` (negative: their clearance).
 fn leg_depth(limb: &TwoBone, ankle: Vector3<f32>, pole: Vector3<f32>, shells: &[Shell]) -> f32 {
     let knee = TwoBone { pole, ..*limb }.middle(ankle);
     shells
         .iter()
-        .map(|s| {
-            s.depth_of(knee, knee, KNEE_R)
-                .max(s.depth_of(limb.root, knee, THIGH_R))
-                .max(s.depth_of(knee, ankle, SHIN_R))
-        })
+        .map(|s| s.depth_of(knee, knee, KNEE_R).max(s.depth_of(knee, ankle, SHIN_R)))
         .fold(f32::NEG_INFINITY, f32::max)
 }
 
 /// Each knee's turn from forward for a whole motion: the smallest (5 degrees at a time, out
-/// first, up to straight to either side) with which the knee, thigh and shin clear every
+/// first, up to straight to either side) with which the knee and shin clear every
 /// drum by [`KNEE_CLEARANCE_M`] in every tenth frame; the clearest when none does. One turn
 /// per take: a knee that swung over mid-song would pop.
 pub fn knee_angles(rig: &Rig, motion: &Motion, shells: &[Shell]) -> [Option<f32>; 2] {

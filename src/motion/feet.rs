@@ -14,8 +14,24 @@ use crate::motion::corpus::Rng;
 use crate::motion::Pose;
 
 pub const OPEN_HOLD_FRAMES: usize = 20;
-/// Ankles at rest on the hi-hat pedal (left) and the kick pedal (right).
+/// Ankles at rest on the hi-hat pedal (left) and the kick pedal (right) of a kit without a
+/// `[pedals]` table.
 pub const FEET_HOME: [[f32; 3]; 2] = [[-0.28, 0.30, 0.10], [0.10, 0.40, 0.10]];
+/// The ankle's place over a pedal: this far in front of its heel, m (the pedals' heels are
+/// where the exports draw them: the hi-hat's at `hihat_pedal_m`, the kick's 27 cm behind its
+/// axle), at the height of [`FEET_HOME`].
+const ANKLE_OVER_HEEL_M: f32 = 0.06;
+
+/// Where the ankles rest on `kit`'s pedals: over each pedal's heel, on its line; the
+/// [`FEET_HOME`] of a kit without pedals.
+pub fn home_for(kit: &crate::kit::Kit) -> [[f32; 3]; 2] {
+    let Some(p) = &kit.pedals else { return FEET_HOME };
+    let z = FEET_HOME[0][2];
+    [
+        [p.hihat_pedal_m[0], p.hihat_pedal_m[1] + ANKLE_OVER_HEEL_M, z],
+        [p.kick_axle_m[0], p.kick_axle_m[1] - 0.27 + ANKLE_OVER_HEEL_M, z],
+    ]
+}
 /// How high the foot lifts at the top of a press, metres, and how far it tilts, degrees.
 pub const PRESS_LIFT_M: f32 = 0.04;
 pub const PRESS_TILT_DEG: f32 = 18.0;
@@ -39,7 +55,8 @@ fn press(lift: &mut [f32], hit: usize, lead: usize, amount: f32) {
     }
 }
 
-pub fn feet(perf: &Performance, map: &NoteMap, frames: usize, rng: &mut Rng) -> Feet {
+/// The feet of `perf`, at rest at `home` (left, right ankles: [`home_for`] a kit).
+pub fn feet(perf: &Performance, map: &NoteMap, frames: usize, rng: &mut Rng, home: [[f32; 3]; 2]) -> Feet {
     let mut kick = vec![0f32; frames];
     let mut chick = vec![0f32; frames];
     let has_cc4 = perf.events.iter().any(|e| matches!(e.kind, DrumEventKind::HiHatPedal { .. }));
@@ -87,7 +104,7 @@ pub fn feet(perf: &Performance, map: &NoteMap, frames: usize, rng: &mut Rng) -> 
     let feet = (0..frames)
         .map(|f| {
             let left_lift = openness[f].max(chick[f]);
-            [foot(FEET_HOME[0], left_lift), foot(FEET_HOME[1], kick[f])]
+            [foot(home[0], left_lift), foot(home[1], kick[f])]
         })
         .collect();
     Feet { feet, openness }
@@ -116,7 +133,7 @@ mod tests {
     fn the_kick_foot_lifts_before_the_hit_and_is_down_at_it() {
         let map = NoteMap::builtin("roland-td").unwrap();
         let p = perf(vec![(1.0, DrumEventKind::NoteOn { note: 36, velocity: 120 })]);
-        let ft = feet(&p, &map, 181, &mut Rng::new(1));
+        let ft = feet(&p, &map, 181, &mut Rng::new(1), FEET_HOME);
         let z = |f: usize| ft.feet[f][1].pos[2];
         let rest = FEET_HOME[1][2];
         assert!((z(60) - rest).abs() < 1e-6, "down at the hit");
@@ -129,7 +146,7 @@ mod tests {
         let map = NoteMap::builtin("roland-td").unwrap();
         let on = |note| DrumEventKind::NoteOn { note, velocity: 90 };
         let p = perf(vec![(0.5, on(46)), (0.7, on(42)), (1.5, on(46))]);
-        let ft = feet(&p, &map, 181, &mut Rng::new(1));
+        let ft = feet(&p, &map, 181, &mut Rng::new(1), FEET_HOME);
         assert!(ft.openness[30] > 0.5 && ft.openness[41] > 0.5);
         assert_eq!(ft.openness[42], 0.0, "closed at 0.7 s");
         assert!(ft.openness[90 + 19] > 0.5 && ft.openness[90 + 20] == 0.0, "released after 20 frames");
@@ -141,7 +158,7 @@ mod tests {
         let map = NoteMap::builtin("roland-td").unwrap();
         let p =
             perf(vec![(0.0, DrumEventKind::HiHatPedal { value: 127 }), (1.0, DrumEventKind::HiHatPedal { value: 0 })]);
-        let ft = feet(&p, &map, 121, &mut Rng::new(1));
+        let ft = feet(&p, &map, 121, &mut Rng::new(1), FEET_HOME);
         assert_eq!(ft.openness[30], 0.0);
         assert_eq!(ft.openness[90], 1.0);
     }

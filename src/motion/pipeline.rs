@@ -131,7 +131,7 @@ pub fn perform_planned(
     let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
     let (upper, retrieval) = upper::retrieve(library, &masks, &MatchSettings::default())?;
     // Feet and hi-hat.
-    let feet = super::feet::feet(perf, map, frames, &mut Rng::new(0));
+    let feet = super::feet::feet(perf, map, frames, &mut Rng::new(0), super::feet::home_for(kit));
     let motion = Motion {
         fps: FPS,
         frames: (0..frames)

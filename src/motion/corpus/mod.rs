@@ -177,7 +177,7 @@ pub fn teach(perf: &Performance, map: &NoteMap, kit: &Kit, seed: u64) -> Result<
     let tips: Vec<[[f32; 3]; 2]> = (0..frames).map(|f| [hands[0][f].stick_tip(), hands[1][f].stick_tip()]).collect();
     let (chest, head) = upper::upper_body(&tips, &planned, &beat, frames, &mut rng.fork(11));
     let face = face::face(&planned, &notes, &beat, frames, &mut rng.fork(12));
-    let feet = crate::motion::feet::feet(perf, map, frames, &mut rng.fork(13));
+    let feet = crate::motion::feet::feet(perf, map, frames, &mut rng.fork(13), crate::motion::feet::FEET_HOME);
     let motion_frames = (0..frames)
         .map(|f| MotionFrame {
             hands: [hands[0][f], hands[1][f]],
