@@ -142,6 +142,8 @@ pub fn start(prepared: Prepared, events: Receiver<LiveEvent>, epoch: Instant) ->
     let stop = Arc::new(AtomicBool::new(false));
     let first_error = Arc::new(Mutex::new(None));
     let (plan_tx, plan_rx) = crossbeam_channel::bounded::<Arc<WindowPlan>>(4);
+    // The feet stay on their pedals, so the knees' turns for the drummer waiting hold.
+    let knees = body_ik::knee_angles(&rig, &waiting.motion, &crate::motion::shells::shells(&kit));
     let _ = plan_tx.try_send(Arc::new(waiting));
     let planner = {
         let (stop, stats, first_error) = (stop.clone(), stats.clone(), first_error.clone());
@@ -180,7 +182,7 @@ pub fn start(prepared: Prepared, events: Receiver<LiveEvent>, epoch: Instant) ->
     };
     let poser = {
         let (stop, stats, hub) = (stop.clone(), stats.clone(), hub.clone());
-        let poser = Poser::new(&kit, rig, lookahead_s);
+        let poser = Poser::new(&kit, rig, lookahead_s, knees);
         thread::Builder::new()
             .name("drumsim-avatar-pose".into())
             .spawn(move || poser.run(&plan_rx, epoch, &stop, &stats, hub.as_deref(), vmc))?
@@ -229,9 +231,11 @@ impl Avatar {
     }
 }
 
-/// The poser's fixed state: the rig, the kit's moving parts, the lookahead.
+/// The poser's fixed state: the rig, the kit's moving parts, the lookahead, the knees'
+/// turns clear of the kit's drums.
 struct Poser {
     rig: Rig,
+    knees: [Option<f32>; 2],
     kit: Kit,
     moving: Vec<KitPart>,
     lookahead_s: f64,
@@ -240,7 +244,7 @@ struct Poser {
 }
 
 impl Poser {
-    fn new(kit: &Kit, rig: Rig, lookahead_s: f64) -> Poser {
+    fn new(kit: &Kit, rig: Rig, lookahead_s: f64, knees: [Option<f32>; 2]) -> Poser {
         let moving =
             scene::kit(kit, rig.bones[0].offset.z - 0.07).into_iter().filter(|p| p.moves != Moves::Still).collect();
         let face_index = scene::FACE_TARGETS
@@ -248,7 +252,7 @@ impl Poser {
             .map(|n| ARKIT_NAMES.iter().position(|a| a == n).expect("an ARKit name"))
             .collect();
         let beater_rest = kit.pedals.map_or(0.0, |p| p.beater_rest_deg).to_radians();
-        Poser { rig, kit: kit.clone(), moving, lookahead_s, beater_rest, face_index }
+        Poser { rig, knees, kit: kit.clone(), moving, lookahead_s, beater_rest, face_index }
     }
 
     fn run(
@@ -268,6 +272,7 @@ impl Poser {
         let mut scratch = Vec::new();
         let mut unity = vmc.as_ref().map(|(h, _, _)| h.empty_pose());
         let mut text = String::with_capacity(4096);
+        let mut carry = body_ik::Carry { knee: self.knees, ..Default::default() };
         while !stop.load(Relaxed) {
             let Some((_, skipped)) = pacer.next_frame(u64::MAX) else { return };
             stats.late_frames.fetch_add(skipped, Relaxed);
@@ -279,7 +284,7 @@ impl Poser {
             let Some(plan) = newest.as_deref() else { continue };
             let shown = now - self.lookahead_s;
             let frame = shown_frame(plan, before.as_deref(), since, now, shown);
-            let pose = body_ik::solve(&self.rig, &frame);
+            let pose = body_ik::solve_after(&self.rig, &frame, &mut carry);
             if let (Some((humanoid, encoder, sender)), Some(unity)) = (vmc.as_mut(), unity.as_mut()) {
                 let world = self.rig.world(&pose);
                 humanoid.pose_into(&world[0].0, |i| world[i].1, &mut scratch, unity);
