@@ -1,6 +1,6 @@
 //! What an animator checks, over Groove MIDI takes (issue 16; `src/eval/motion_quality.rs`):
 //! `cargo run --release --example motion_quality [TAKE.mid ...]` (default: every sixth
-//! validation take). `KIT=rearranged` plays another kit; `JSON=1` prints each take's figures.
+//! validation take). `KIT=rearranged` plays another kit; `JSON=1` prints each take's figures, `KNEES=1` each knee's turn clear of the drums.
 
 use drumsim::eval::motion_quality::{measure, MotionQuality, PlayedNote};
 use drumsim::kit::Kit;
@@ -42,72 +42,9 @@ fn main() {
             })
             .collect();
         let poses = solve_motion_in(&rig, &planned.motion, &shells(&kit));
-        if std::env::var_os("POPS").is_some() {
-            let fr = &planned.motion.frames;
-            for f in 1..fr.len() {
-                for h in 0..2 {
-                    let d: f32 =
-                        (0..3).map(|i| (fr[f].hands[h].pos[i] - fr[f - 1].hands[h].pos[i]).powi(2)).sum::<f32>().sqrt();
-                    let pd: f32 = (0..3)
-                        .map(|i| (predicted[f][h].pos[i] - predicted[f - 1][h].pos[i]).powi(2))
-                        .sum::<f32>()
-                        .sqrt();
-                    let tp = |f: usize| planned.hands.tip(h, f as f64 / 60.0);
-                    let td: f32 = (0..3).map(|i| (tp(f)[i] - tp(f - 1)[i]).powi(2)).sum::<f32>().sqrt();
-                    if d > 0.10 {
-                        println!("    predicted grip step {:.1} cm, planned tip step {:.1} cm", pd * 100.0, td * 100.0);
-                        let t = f as f64 / 60.0;
-                        let near: Vec<String> = notes
-                            .iter()
-                            .filter(|n| n.hand == h && (n.time_s - t).abs() < 0.25)
-                            .map(|n| {
-                                format!("{:+.0}ms {} v{}", (n.time_s - t) * 1e3, kit.pieces[n.piece].id, n.velocity)
-                            })
-                            .collect();
-                        println!("  pop {take} {t:.3}s hand {h} {:.1} cm; its notes {near:?}", d * 100.0);
-                    }
-                }
-            }
-        }
         if std::env::var_os("KNEES").is_some() {
             let a = drumsim::motion::body_ik::knee_angles(&rig, &planned.motion, &shells(&kit));
             println!("  knee turns {:?} degrees", a.map(|x| x.map(f32::to_degrees)));
-            let w = rig.world(&poses[poses.len() / 2]);
-            let r = drumsim::motion::rig::UPPER_LEG;
-            println!(
-                "  hips {:?} knees {:?} {:?} ankles {:?} {:?} toes {:?} {:?}",
-                w[0].0,
-                w[r[0] + 1].0,
-                w[r[1] + 1].0,
-                w[r[0] + 2].0,
-                w[r[1] + 2].0,
-                w[r[0] + 3].0,
-                w[r[1] + 3].0
-            );
-        }
-        if std::env::var_os("HANDJUMP").is_some() {
-            let fr = &planned.motion.frames;
-            for f in 1..fr.len() {
-                for h in 0..2 {
-                    let a = fr[f].hands[h].rotation().angle_to(&fr[f - 1].hands[h].rotation()).to_degrees();
-                    let w = rig.world(&poses[f]);
-                    let w0 = rig.world(&poses[f - 1]);
-                    let fa = w[drumsim::motion::rig::HAND[h] - 1]
-                        .1
-                        .angle_to(&w0[drumsim::motion::rig::HAND[h] - 1].1)
-                        .to_degrees();
-                    let ua = w[drumsim::motion::rig::HAND[h] - 2]
-                        .1
-                        .angle_to(&w0[drumsim::motion::rig::HAND[h] - 2].1)
-                        .to_degrees();
-                    let la = poses[f].local[drumsim::motion::rig::HAND[h]]
-                        .angle_to(&poses[f - 1].local[drumsim::motion::rig::HAND[h]])
-                        .to_degrees();
-                    if la > 45.0 {
-                        println!("  {take} f {f} hand {h}: target turn {a:.0}, forearm world {fa:.0}, upper arm world {ua:.0}, hand local {la:.0}");
-                    }
-                }
-            }
         }
         let q = measure(&rig, &planned.motion, &poses, &kit, &notes);
         let toms = notes.iter().any(|n| kit.pieces[n.piece].id.contains("tom"));

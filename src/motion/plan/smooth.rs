@@ -27,11 +27,12 @@ pub fn smooth_jumps(poses: &[[Pose; 2]]) -> Vec<[Pose; 2]> {
                 continue;
             }
             let reach = WHOLE_FRAMES + FADE_FRAMES;
-            for g in f.saturating_sub(reach)..(f + reach).min(poses.len()) {
+            let (from, to) = (f.saturating_sub(reach), (f + reach).min(poses.len()));
+            for (g, x) in weight.iter_mut().enumerate().take(to).skip(from) {
                 let d = if g < f { f - 1 - g } else { g - f };
                 let w =
                     if d < WHOLE_FRAMES { 1.0 } else { 1.0 - (d + 1 - WHOLE_FRAMES) as f32 / (FADE_FRAMES + 1) as f32 };
-                weight[g] = weight[g].max(w);
+                *x = x.max(w);
             }
         }
         for (f, &w) in weight.iter().enumerate() {
@@ -73,11 +74,11 @@ pub fn smooth_hands(poses: &[[Pose; 2]], sigma: f32) -> Vec<[Pose; 2]> {
                     let p = poses[g as usize][h];
                     let sign =
                         if p.rot.iter().zip(&centre.rot).map(|(a, b)| a * b).sum::<f32>() < 0.0 { -1.0 } else { 1.0 };
-                    for i in 0..3 {
-                        pos[i] += w * p.pos[i];
+                    for (acc, v) in pos.iter_mut().zip(p.pos) {
+                        *acc += w * v;
                     }
-                    for i in 0..4 {
-                        rot[i] += w * sign * p.rot[i];
+                    for (acc, v) in rot.iter_mut().zip(p.rot) {
+                        *acc += w * sign * v;
                     }
                     total += w;
                 }
