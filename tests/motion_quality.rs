@@ -26,12 +26,14 @@ fn takes() -> Vec<PathBuf> {
         .collect()
 }
 
-/// The takes' figures pooled, on `kit`.
-fn quality(kit: &Kit) -> MotionQuality {
+/// The takes' figures pooled, on `kit`, and the chest's correlation with the hands in each
+/// take with toms.
+fn quality(kit: &Kit) -> (MotionQuality, Vec<f32>) {
     let map = NoteMap::builtin("roland-td").unwrap();
     let (model, library, rig) = (HandModel::shipped(), shipped_library().unwrap(), Rig::default());
     let solids = shells(kit);
     let mut all = MotionQuality::default();
+    let mut chest = Vec::new();
     let takes = takes();
     assert!(takes.len() >= 20, "{} takes", takes.len());
     for take in &takes {
@@ -46,14 +48,20 @@ fn quality(kit: &Kit) -> MotionQuality {
             })
             .collect();
         let poses = solve_motion_in(&rig, &planned.motion, &solids);
-        all.merge(&measure(&rig, &planned.motion, &poses, kit, &notes));
+        let q = measure(&rig, &planned.motion, &poses, kit, &notes);
+        if notes.iter().any(|n| kit.pieces[n.piece].id.contains("tom")) {
+            chest.push(q.chest_follows_hands.unwrap_or(f32::NAN));
+        }
+        all.merge(&q);
     }
-    eprintln!("{} on {}: {}", takes.len(), kit.name, serde_json::to_string(&all).unwrap());
-    all
+    eprintln!("{} on {}: {}; chest {chest:?}", takes.len(), kit.name, serde_json::to_string(&all).unwrap());
+    (all, chest)
 }
 
 fn holds(kit: &Kit) {
-    let q = quality(kit);
+    let (q, chest) = quality(kit);
+    // The chest turns toward where the hands play, in every take with toms.
+    assert!(chest.len() >= 10 && chest.iter().all(|&c| c >= 0.5), "chest against hands: {chest:?}");
     // Knees, thighs, shins and feet outside every drum, in every frame.
     assert!(q.deepest_leg_in_kit_m < 0.0, "{:.1} cm: {}", q.deepest_leg_in_kit_m * 100.0, q.deepest_leg_in_kit_at);
     assert_eq!(q.frames_leg_in_kit, 0);
@@ -68,7 +76,7 @@ fn holds(kit: &Kit) {
 }
 
 #[test]
-fn the_default_kit_s_drummer_keeps_legs_out_of_the_drums_ghost_notes_low_and_blinks() {
+fn the_default_kit_s_drummer_keeps_legs_out_of_the_drums_turns_to_the_hands_plays_ghost_notes_low_and_blinks() {
     holds(&Kit::builtin_default());
 }
 

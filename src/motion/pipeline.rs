@@ -129,7 +129,8 @@ pub fn perform_planned(
     let hands = plan::plan_hands(&smoothed, FPS, &notes, &assignment, StrokeSettings::default()).sample(FPS, frames);
     // Upper body and face.
     let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
-    let (upper, retrieval) = upper::retrieve(library, &masks, &MatchSettings::default())?;
+    let (mut upper, retrieval) = upper::retrieve(library, &masks, &MatchSettings::default())?;
+    upper::turn::turn_toward_hands(&mut upper, &hands);
     // Feet and hi-hat.
     let feet = super::feet::feet(perf, map, frames, &mut Rng::new(0), super::feet::home_for(kit));
     let motion = Motion {

@@ -12,12 +12,16 @@
 //! a pose. The matched window's chest and head poses and 52 face weights are copied, and
 //! consecutive windows are cross-faded over a few frames at their seam.
 //!
+//! The retrieved chest and head are then turned toward where the hands play on this kit
+//! (`turn.rs`).
+//!
 //! The library holds only training material (`library.rs`): windows of the teacher's
 //! motion of the Groove MIDI train split, or of loaded mocap.
 
 pub mod build;
 pub mod library;
 pub mod matching;
+pub mod turn;
 
 pub use library::{Clip, Library, LibraryError, UpperFrame};
 pub use matching::{retrieve, MatchReport, MatchSettings};
