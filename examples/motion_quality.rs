@@ -2,10 +2,9 @@
 //! `cargo run --release --example motion_quality [TAKE.mid ...]` (default: every sixth
 //! validation take). `KIT=rearranged` plays another kit; `JSON=1` prints each take's figures, `KNEES=1` each knee's turn clear of the drums.
 
-use drumsim::eval::motion_quality::{measure, MotionQuality, PlayedNote};
+use drumsim::eval::motion_quality::{measure_take, MotionQuality};
 use drumsim::kit::Kit;
 use drumsim::midi::{read_file, NoteMap, ReadOptions};
-use drumsim::motion::body_ik::solve_motion_in;
 use drumsim::motion::hands::HandModel;
 use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
 use drumsim::motion::rig::Rig;
@@ -31,23 +30,12 @@ fn main() {
     let mut chest = Vec::new();
     for take in &takes {
         let perf = read_file(Path::new(take), &ReadOptions { channel: 10 }).unwrap();
-        let predicted = model_hands(&model, &perf, &map);
-        let planned = perform_planned(&perf, &map, &kit, &predicted, &library).unwrap();
-        let notes: Vec<PlayedNote> = planned
-            .notes
-            .iter()
-            .zip(&planned.report.hands)
-            .filter_map(|(n, h)| {
-                h.map(|hand| PlayedNote { time_s: n.time_s, piece: n.piece, velocity: n.velocity, hand })
-            })
-            .collect();
-        let poses = solve_motion_in(&rig, &planned.motion, &shells(&kit));
+        let (q, toms) = measure_take(&perf, &map, &kit, &model, &library, &rig).unwrap();
         if std::env::var_os("KNEES").is_some() {
+            let planned = perform_planned(&perf, &map, &kit, &model_hands(&model, &perf, &map), &library).unwrap();
             let a = drumsim::motion::body_ik::knee_angles(&rig, &planned.motion, &shells(&kit));
             println!("  knee turns {:?} degrees", a.map(|x| x.map(f32::to_degrees)));
         }
-        let q = measure(&rig, &planned.motion, &poses, &kit, &notes);
-        let toms = notes.iter().any(|n| kit.pieces[n.piece].id.contains("tom"));
         if toms {
             chest.extend(q.chest_follows_hands);
         }

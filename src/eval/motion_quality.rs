@@ -13,9 +13,14 @@
 //! shell depth the exports draw. Cymbals are discs a stick may not pass through.
 
 use crate::kit::{Kit, PieceKind};
+use crate::midi::{NoteMap, Performance};
+use crate::motion::body_ik::solve_motion_in;
+use crate::motion::hands::HandModel;
+use crate::motion::pipeline::{model_hands, perform_planned, MotionError};
 use crate::motion::rig::{BodyPose, Rig, FOOT, HAND, HIPS, NECK, SPINE, UPPER_LEG};
-use crate::motion::shells::shells;
+use crate::motion::shells::{shells, Shell};
 use crate::motion::track::ARKIT_NAMES;
+use crate::motion::upper::library::Library;
 use crate::motion::Motion;
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -29,8 +34,7 @@ pub const UPPER_ARM_R: f32 = 0.045;
 pub const FOREARM_R: f32 = 0.035;
 pub const HAND_R: f32 = 0.04;
 pub const STICK_R: f32 = 0.008;
-pub const KNEE_R: f32 = 0.06;
-pub const SHIN_R: f32 = 0.05;
+pub use crate::motion::shells::{KNEE_R, SHIN_R};
 pub const FOOT_R: f32 = 0.045;
 /// The arm proxies' names, per side.
 const ARM_PARTS: [[&str; 4]; 2] = [
@@ -59,9 +63,11 @@ pub struct MotionQuality {
     /// Bone-frames turning more than 45 degrees, and by bone.
     pub turns_over_45: usize,
     pub turns_over_45_by_bone: std::collections::BTreeMap<String, usize>,
-    /// Largest wrist travel between consecutive frames, m, and frames over 6 cm.
+    /// Largest wrist travel between consecutive frames, m, and wrist-frames over 6 cm and
+    /// over 10 cm (a pop across the kit).
     pub max_wrist_step_m: f32,
     pub wrist_steps_over_6cm: usize,
+    pub wrist_steps_over_10cm: usize,
     /// Deepest stick, hand or arm proxy inside the torso or a thigh, m, where, and frames
     /// with one deeper than 1 cm.
     pub deepest_in_body_m: f32,
@@ -186,6 +192,26 @@ fn median(v: &mut [f32]) -> Option<f32> {
     Some(v[v.len() / 2])
 }
 
+/// How deep the deepest of `parts` reaches into any of `drums` (negative: its clearance),
+/// kept in `best` (with its place, `at` of a description) when deeper.
+fn into_drums(
+    parts: &[Capsule],
+    drums: &[Shell],
+    best: &mut f32,
+    place: &mut String,
+    at: &impl Fn(&str) -> String,
+) -> f32 {
+    let mut worst = f32::NEG_INFINITY;
+    for p in parts {
+        for d in drums {
+            let depth = d.depth_of(p.a, p.b, p.r);
+            worst = worst.max(depth);
+            set_max(best, place, depth, || at(&format!("{} in {}", p.name, d.id)));
+        }
+    }
+    worst
+}
+
 fn set_max(best: &mut f32, at: &mut String, value: f32, place: impl FnOnce() -> String) {
     if value > *best {
         *best = value;
@@ -234,9 +260,8 @@ pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes:
         if let Some(pw) = &prev_world {
             for side in 0..2 {
                 let step = (w[HAND[side]].0 - pw[HAND[side]].0).norm();
-                if step > 0.06 {
-                    q.wrist_steps_over_6cm += 1;
-                }
+                q.wrist_steps_over_6cm += usize::from(step > 0.06);
+                q.wrist_steps_over_10cm += usize::from(step > 0.10);
                 q.max_wrist_step_m = q.max_wrist_step_m.max(step);
             }
         }
@@ -285,16 +310,7 @@ pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes:
             q.frames_in_body += 1;
         }
         // Arms, hands and sticks against the drums; sticks through cymbals.
-        let mut worst_kit = f32::NEG_INFINITY;
-        for a in &arms {
-            for d in &drums {
-                let depth = d.depth_of(a.a, a.b, a.r);
-                worst_kit = worst_kit.max(depth);
-                set_max(&mut q.deepest_arm_in_kit_m, &mut q.deepest_arm_in_kit_at, depth, || {
-                    at(&format!("{} in {}", a.name, d.id))
-                });
-            }
-        }
+        let worst_kit = into_drums(&arms, &drums, &mut q.deepest_arm_in_kit_m, &mut q.deepest_arm_in_kit_at, &at);
         if worst_kit > 0.01 {
             q.frames_arm_in_kit += 1;
         }
@@ -302,19 +318,15 @@ pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes:
             q.frames_stick_through_cymbal += 1;
         }
         // Knees, shins and feet against the drums.
-        let mut worst_leg = f32::NEG_INFINITY;
-        for (s, l) in legs.iter().enumerate() {
-            let knee = Capsule { a: l[0].b, b: l[0].b, r: KNEE_R, name: ["left knee", "right knee"][s] };
-            for k in [knee, l[1], l[2]] {
-                for d in &drums {
-                    let depth = d.depth_of(k.a, k.b, k.r);
-                    worst_leg = worst_leg.max(depth);
-                    set_max(&mut q.deepest_leg_in_kit_m, &mut q.deepest_leg_in_kit_at, depth, || {
-                        at(&format!("{} in {}", k.name, d.id))
-                    });
-                }
-            }
-        }
+        let below: Vec<Capsule> = legs
+            .iter()
+            .enumerate()
+            .flat_map(|(s, l)| {
+                let knee = Capsule { a: l[0].b, b: l[0].b, r: KNEE_R, name: ["left knee", "right knee"][s] };
+                [knee, l[1], l[2]]
+            })
+            .collect();
+        let worst_leg = into_drums(&below, &drums, &mut q.deepest_leg_in_kit_m, &mut q.deepest_leg_in_kit_at, &at);
         if worst_leg > 0.0 {
             q.frames_leg_in_kit += 1;
         }
@@ -358,6 +370,29 @@ pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes:
     q
 }
 
+/// A take as the motion stage plays it on `kit` (the hand model's prediction, strike
+/// planning, retrieval, feet; the rig posed with the knees clear of the drums), measured;
+/// and whether it plays a tom (the chest's correlation is judged on those).
+pub fn measure_take(
+    perf: &Performance,
+    map: &NoteMap,
+    kit: &Kit,
+    model: &HandModel,
+    library: &Library,
+    rig: &Rig,
+) -> Result<(MotionQuality, bool), MotionError> {
+    let planned = perform_planned(perf, map, kit, &model_hands(model, perf, map), library)?;
+    let notes: Vec<PlayedNote> = planned
+        .notes
+        .iter()
+        .zip(&planned.report.hands)
+        .filter_map(|(n, h)| h.map(|hand| PlayedNote { time_s: n.time_s, piece: n.piece, velocity: n.velocity, hand }))
+        .collect();
+    let poses = solve_motion_in(rig, &planned.motion, &shells(kit));
+    let toms = notes.iter().any(|n| kit.pieces[n.piece].id.contains("tom"));
+    Ok((measure(rig, &planned.motion, &poses, kit, &notes), toms))
+}
+
 impl MotionQuality {
     fn finish(&mut self) {
         self.ghost_lift_m = median(&mut self.ghost_lifts.clone());
@@ -376,6 +411,7 @@ impl MotionQuality {
             *self.turns_over_45_by_bone.entry(bone.clone()).or_default() += n;
         }
         self.wrist_steps_over_6cm += other.wrist_steps_over_6cm;
+        self.wrist_steps_over_10cm += other.wrist_steps_over_10cm;
         self.frames_in_body += other.frames_in_body;
         self.frames_arm_in_kit += other.frames_arm_in_kit;
         self.frames_stick_through_cymbal += other.frames_stick_through_cymbal;
@@ -410,5 +446,50 @@ impl MotionQuality {
         self.ghost_lifts.extend_from_slice(&other.ghost_lifts);
         self.accent_lifts.extend_from_slice(&other.accent_lifts);
         self.finish();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn capsules_overlap_by_their_radii_less_the_distance_of_their_segments() {
+        let v = V3::new;
+        // Crossing segments 10 cm apart.
+        assert!(
+            (segment_distance(v(-1.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, -1.0, 0.1), v(0.0, 1.0, 0.1)) - 0.1).abs()
+                < 1e-6
+        );
+        // Parallel, overlapping along their length, 5 cm apart; and end to end.
+        assert!(
+            (segment_distance(v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.5, 0.05, 0.0), v(2.0, 0.05, 0.0)) - 0.05).abs()
+                < 1e-6
+        );
+        assert!(
+            (segment_distance(v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(1.3, 0.0, 0.0), v(2.0, 0.0, 0.0)) - 0.3).abs()
+                < 1e-6
+        );
+        // A ball (a point segment) 8 cm from a capsule's axis: 2 cm into a 6 + 4 cm pair.
+        let a = Capsule { a: v(0.0, 0.0, 0.0), b: v(1.0, 0.0, 0.0), r: 0.06, name: "a" };
+        let b = Capsule { a: v(0.5, 0.08, 0.0), b: v(0.5, 0.08, 0.0), r: 0.04, name: "b" };
+        assert!((overlap(&a, &b) - 0.02).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_stick_passes_through_a_cymbal_only_across_its_disc() {
+        let d = Disc { c: V3::zeros(), n: V3::z(), r: 0.2 };
+        assert!(d.crossed_by(V3::new(0.1, 0.0, 0.05), V3::new(0.1, 0.0, -0.05)));
+        // Beside the edge, or lying above it.
+        assert!(!d.crossed_by(V3::new(0.3, 0.0, 0.05), V3::new(0.3, 0.0, -0.05)));
+        assert!(!d.crossed_by(V3::new(-0.1, 0.0, 0.01), V3::new(0.1, 0.0, 0.02)));
+    }
+
+    #[test]
+    fn pearson_is_one_for_a_line_and_none_for_a_constant() {
+        let x = [0.0, 1.0, 2.0, 3.0];
+        assert!((pearson(&x, &[1.0, 3.0, 5.0, 7.0]).unwrap() - 1.0).abs() < 1e-6);
+        assert!((pearson(&x, &[7.0, 5.0, 3.0, 1.0]).unwrap() + 1.0).abs() < 1e-6);
+        assert_eq!(pearson(&x, &[2.0; 4]), None);
     }
 }

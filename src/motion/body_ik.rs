@@ -20,7 +20,7 @@
 //! targets fall back to the rest pose's. No output is ever NaN.
 
 use super::rig::{BodyPose, Rig, FOOT, HAND, HEAD, HIPS, NECK, SHOULDER, SPINE, UPPER_LEG};
-use super::shells::Shell;
+use super::shells::{Shell, KNEE_R, SHIN_R};
 use super::track::{Motion, MotionFrame, Pose};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
@@ -158,10 +158,6 @@ pub fn solve_after(rig: &Rig, frame: &MotionFrame, carry: &mut Carry) -> BodyPos
 
 /// How far the knee and shin stay from a drum, m.
 pub const KNEE_CLEARANCE_M: f32 = 0.0;
-/// Radii of the knee and shin the clearance keeps out of the drums, m (those of
-/// `eval::motion_quality`).
-const KNEE_R: f32 = 0.06;
-const SHIN_R: f32 = 0.05;
 
 /// The knee's pole for `limb` reaching `ankle`, turned `angle` radians from forward and a
 /// little out toward the leg's side (`out`: -1 left, 1 right; negative angles turn in).

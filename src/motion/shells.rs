@@ -5,6 +5,11 @@ use super::export::scene::drum_depth;
 use crate::kit::{Kit, PieceKind};
 use nalgebra::Vector3;
 
+/// The knee (a ball at the joint) and shin (a capsule from knee to ankle) radii the legs
+/// keep out of the drums with, m; `eval::motion_quality` measures with the same.
+pub const KNEE_R: f32 = 0.06;
+pub const SHIN_R: f32 = 0.05;
+
 /// One drum's solid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Shell {
