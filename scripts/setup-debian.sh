@@ -14,6 +14,8 @@ packages+=(time)
 # The viewer (`drumsim view`) is tested in a real headless Chromium; `drumsim video` draws
 # its frames there and encodes them with ffmpeg.
 packages+=(chromium ffmpeg)
+# The sound server's test reads drumsim's contact messages with liblo's oscdump.
+packages+=(liblo-tools)
 # The VMC test receives with python-osc (installed below into /opt/drumsim-python).
 packages+=(python3 python3-venv)
 command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)

@@ -20,5 +20,6 @@ pub mod perform;
 pub mod render;
 pub mod rng;
 pub mod sound;
+pub mod sound_server;
 pub mod view;
 pub mod vmc;

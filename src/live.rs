@@ -15,12 +15,17 @@
 //! avatar planner   the motion stage on the newest notes, every 50 ms   (avatar, motion::window)
 //! avatar poser     60 Hz: pose at now - lookahead -> page WebSocket, VMC (avatar, view::live, vmc)
 //! ```
+//! With `--sound-to udp://HOST:PORT` there is no feed or audio callback here: the interaction
+//! thread sends each message in a bundle tagged with when it is to sound (the note's arrival
+//! plus the lookahead) to `drumsim sound` in another process (interaction::remote).
+//!
 //! A MIDI port that disappears (its JACK client closed, the USB cable pulled) does not stop
 //! the session: it is reported, and reconnected by name as soon as a port of that name is
 //! back (checked every second).
 
 use crate::interaction::direct::Director;
-use crate::interaction::transport::{self, PacketSender, TransportError};
+use crate::interaction::remote::TimedSender;
+use crate::interaction::transport::{self, ChannelSender, PacketSender, TransportError};
 use crate::interaction::{encode, Message};
 use crate::kit::Kit;
 use crate::midi::live::{self as midi_live, EventSink, InputStats, LiveEvent, LiveInput, MessageParser, PortMatch};
@@ -55,7 +60,12 @@ pub struct LiveOptions {
     /// Show the drummer (the live page, VMC); its lookahead is the avatar's, the sound stays
     /// immediate.
     pub avatar: Option<crate::avatar::AvatarOptions>,
+    /// Send the messages to a sound server there instead of playing them here.
+    pub sound_to: Option<std::net::SocketAddr>,
 }
+
+/// The lookahead of `--sound-to` when none is given, ms: room for a local network's jitter.
+pub const REMOTE_LOOKAHEAD_MS: f32 = 20.0;
 
 /// Bad `live` options or names (exit code 2).
 #[derive(Debug, thiserror::Error)]
@@ -105,21 +115,21 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
 
     let mut input = LiveInput::new("drumsim")?;
     let port = choose_port(&input.port_names(), opts.midi_port.as_deref())?;
-    let device = device::find_output(opts.audio_device.as_deref()).map_err(|available| match &opts.audio_device {
-        Some(wanted) => anyhow::Error::new(LiveInputError::NoSuchAudioDevice { wanted: wanted.clone(), available }),
-        None => anyhow::anyhow!(
-            "no default audio output (is JACK or a sound card there?); choose one with --audio, see `drumsim devices`"
-        ),
-    })?;
+    let device = match opts.sound_to {
+        Some(_) => None,
+        None => Some(find_device(opts)?),
+    };
     // The avatar loads before the sound starts, so that its loading never holds up the audio.
     let prepared = match &opts.avatar {
         Some(a) => Some(crate::avatar::prepare(&kit, &map, a)?),
         None => None,
     };
-    let settings =
-        OutputSettings { lookahead: Duration::from_secs_f32(opts.lookahead_ms / 1000.0), ..Default::default() };
+    let lookahead = Duration::from_secs_f32(opts.lookahead_ms / 1000.0);
     let (ring_tx, ring_rx) = rtrb::RingBuffer::new(SOUND_RING);
-    let audio = AudioOutput::start(&device, &kit, &settings, ring_rx)?;
+    let audio = match &device {
+        Some(d) => Some(AudioOutput::start(d, &kit, &OutputSettings { lookahead, ..Default::default() }, ring_rx)?),
+        None => None,
+    };
 
     let epoch = Instant::now();
     let counters = Arc::new(Counters::default());
@@ -131,14 +141,25 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
         None => (None, None),
     };
     let (event_tx, event_rx) = crossbeam_channel::bounded(MIDI_QUEUE);
-    let (packet_tx, mut packet_rx) = transport::channel(PACKET_QUEUE);
+    let (out, feeder) = match (&audio, opts.sound_to) {
+        (Some(audio), _) => {
+            let (packet_tx, mut packet_rx) = transport::channel(PACKET_QUEUE);
+            let feed = EventFeed::new(kit, audio.sample_rate_hz as f32, PerformanceClock::Epoch(epoch), ring_tx)
+                .with_stats(audio.stats.clone());
+            let feeder = thread::Builder::new().name("drumsim-feed".into()).spawn(move || feed.run(&mut packet_rx))?;
+            (Out::Local(packet_tx), Some(feeder))
+        }
+        (None, Some(to)) => {
+            let sender =
+                TimedSender::connect(to, epoch, lookahead).with_context(|| format!("sending to udp://{to}"))?;
+            (Out::Remote(sender), None)
+        }
+        (None, None) => unreachable!("an audio output or a sound server"),
+    };
     let c = counters.clone();
     let interaction = thread::Builder::new()
         .name("drumsim-interaction".into())
-        .spawn(move || interact(director, &event_rx, packet_tx, avatar_tx, &c))?;
-    let feed = EventFeed::new(kit, audio.sample_rate_hz as f32, PerformanceClock::Epoch(epoch), ring_tx)
-        .with_stats(audio.stats.clone());
-    let feeder = thread::Builder::new().name("drumsim-feed".into()).spawn(move || feed.run(&mut packet_rx))?;
+        .spawn(move || interact(director, &event_rx, out, avatar_tx, &c))?;
 
     let sink = EventSink {
         parser: MessageParser { cc4_closed: map.cc4_closed, ..MessageParser::new(channel) },
@@ -147,17 +168,41 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
         stats: counters.input.clone(),
     };
     input.connect(&port, sink)?;
-    wait_for_first_callback(&audio.stats);
-    eprintln!("{}", status(&port, channel, &opts.map, &audio, opts.lookahead_ms));
+    match (&audio, opts.sound_to) {
+        (Some(audio), _) => {
+            wait_for_first_callback(&audio.stats);
+            eprintln!("{}", status(&port, channel, &opts.map, audio, opts.lookahead_ms));
+        }
+        (None, Some(to)) => eprintln!(
+            "drumsim live: MIDI {port:?} ({}, channel {channel}, map {}) -> sound server udp://{to}, each message \
+             tagged to sound {} ms after its note",
+            midi_live::BACKEND,
+            opts.map,
+            opts.lookahead_ms
+        ),
+        (None, None) => {}
+    }
     if let (Some(a), Some(options)) = (&avatar, &opts.avatar) {
         announce(a, options);
     }
 
-    let result = supervise(&mut input, &audio, &counters, opts.duration_s);
+    let stats = audio.as_ref().map(|a| a.stats.clone()).unwrap_or_default();
+    let result = supervise(&mut input, audio.as_ref(), &counters, opts.duration_s);
     drop(input); // closes the MIDI port: the interaction thread ends, then the feed thread
     interaction.join().map_err(|_| anyhow::anyhow!("the interaction thread panicked"))?;
-    feeder.join().map_err(|_| anyhow::anyhow!("the feed thread panicked"))?.context("message transport")?;
-    eprintln!("drumsim live: stopped after {:.1} s: {}", epoch.elapsed().as_secs_f64(), counters.report(&audio.stats));
+    if let Some(feeder) = feeder {
+        feeder.join().map_err(|_| anyhow::anyhow!("the feed thread panicked"))?.context("message transport")?;
+    }
+    eprintln!("drumsim live: stopped after {:.1} s: {}", epoch.elapsed().as_secs_f64(), counters.report(&stats));
+    if let Some(to) = opts.sound_to {
+        let refused = counters.refused.load(Relaxed);
+        let hint =
+            if refused > 0 { format!(" (is `drumsim sound --listen udp://{to}` running?)") } else { String::new() };
+        eprintln!(
+            "drumsim live: {} messages sent to udp://{to}, {refused} refused{hint}",
+            counters.messages.load(Relaxed)
+        );
+    }
     if let Some(a) = avatar {
         let dropped = counters.avatar_dropped.load(Relaxed);
         eprintln!("drumsim live: {}, {dropped} events the avatar had no room for", a.stop());
@@ -179,6 +224,15 @@ fn announce(avatar: &crate::avatar::Avatar, options: &crate::avatar::AvatarOptio
     if let Some(v) = &options.vmc {
         eprintln!("drumsim live: sending the drummer to the VMC receiver at {}, 60 frames a second", v.target);
     }
+}
+
+fn find_device(opts: &LiveOptions) -> anyhow::Result<device::OutputDevice> {
+    device::find_output(opts.audio_device.as_deref()).map_err(|available| match &opts.audio_device {
+        Some(wanted) => anyhow::Error::new(LiveInputError::NoSuchAudioDevice { wanted: wanted.clone(), available }),
+        None => anyhow::anyhow!(
+            "no default audio output (is JACK or a sound card there?); choose one with --audio, see `drumsim devices`"
+        ),
+    })
 }
 
 fn validate(opts: &LiveOptions) -> Result<Option<u8>, LiveInputError> {
@@ -219,11 +273,16 @@ struct Counters {
     transport_dropped: AtomicU64,
     /// Events the avatar's queue had no room for.
     avatar_dropped: AtomicU64,
+    /// Messages the network refused (`--sound-to` with no server listening).
+    refused: AtomicU64,
 }
 
 impl Counters {
     fn dropped(&self, out: &OutputStats) -> u64 {
-        self.input.dropped.load(Relaxed) + self.transport_dropped.load(Relaxed) + out.dropped_events.load(Relaxed)
+        self.input.dropped.load(Relaxed)
+            + self.transport_dropped.load(Relaxed)
+            + self.refused.load(Relaxed)
+            + out.dropped_events.load(Relaxed)
     }
 
     fn report(&self, out: &OutputStats) -> String {
@@ -240,12 +299,39 @@ impl Counters {
     }
 }
 
+/// Where the interaction thread's messages go.
+enum Out {
+    /// The feed thread of this process, as OSC packets.
+    Local(ChannelSender),
+    /// A sound server elsewhere, as time-tagged bundles.
+    Remote(TimedSender),
+}
+
+impl Out {
+    fn send(&mut self, msg: &Message, buf: &mut Vec<u8>, c: &Counters) -> Result<(), TransportError> {
+        match self {
+            Out::Local(packets) => {
+                encode(msg, buf).map_err(|e| TransportError::Io(std::io::Error::other(e.to_string())))?;
+                packets.send(buf)
+            }
+            Out::Remote(sender) => {
+                let refused = sender.counts.refused;
+                sender.send(msg)?;
+                if sender.counts.refused > refused {
+                    c.refused.fetch_add(1, Relaxed);
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
 /// The interaction thread: drum events -> messages -> OSC packets, until the input closes;
 /// each event also goes to the avatar, when there is one (never waiting for it).
 fn interact(
     mut director: Director,
     events: &Receiver<LiveEvent>,
-    mut packets: impl PacketSender,
+    mut out: Out,
     avatar: Option<crossbeam_channel::Sender<LiveEvent>>,
     c: &Counters,
 ) {
@@ -259,13 +345,13 @@ fn interact(
         }
         director.on_event(&ev.event, &mut messages);
         for msg in messages.drain(..) {
-            if let Err(e) = encode(&msg, &mut buf) {
-                eprintln!("drumsim: {e}");
-                continue;
-            }
-            match packets.send(&buf) {
+            match out.send(&msg, &mut buf, c) {
                 Ok(()) => c.messages.fetch_add(1, Relaxed),
                 Err(TransportError::Disconnected) => return,
+                Err(TransportError::Io(e)) => {
+                    eprintln!("drumsim live: a message was not sent: {e}");
+                    c.transport_dropped.fetch_add(1, Relaxed)
+                }
                 Err(_) => c.transport_dropped.fetch_add(1, Relaxed),
             };
         }
@@ -301,7 +387,7 @@ fn status(port: &str, channel: u8, map: &str, audio: &AudioOutput, lookahead_ms:
 /// The main thread's loop: until `duration_s`, watch the port, report problems as they happen.
 fn supervise(
     input: &mut LiveInput,
-    audio: &AudioOutput,
+    audio: Option<&AudioOutput>,
     counters: &Counters,
     duration_s: Option<f64>,
 ) -> anyhow::Result<()> {
@@ -316,8 +402,8 @@ fn supervise(
         }
         let until = deadline.map_or(next_check, |d| d.min(next_check));
         thread::sleep(until.saturating_duration_since(now).min(Duration::from_millis(100)));
-        if let Some(e) = audio.error() {
-            anyhow::bail!("audio output {} stopped: {e}", audio.label);
+        if let Some((a, e)) = audio.and_then(|a| Some((a, a.error()?))) {
+            anyhow::bail!("audio output {} stopped: {e}", a.label);
         }
         if Instant::now() < next_check {
             continue;
@@ -332,7 +418,8 @@ fn supervise(
             }
             None => {}
         }
-        let now_counts = (counters.dropped(&audio.stats), audio.stats.xruns.load(Relaxed));
+        let stats = audio.map(|a| a.stats.clone()).unwrap_or_default();
+        let now_counts = (counters.dropped(&stats), stats.xruns.load(Relaxed));
         if now_counts != reported {
             eprintln!("drumsim live: {} dropped events, {} xruns so far", now_counts.0, now_counts.1);
             reported = now_counts;
@@ -377,6 +464,7 @@ mod tests {
             channel: None,
             duration_s: None,
             avatar: None,
+            sound_to: None,
         }
     }
 

@@ -132,6 +132,11 @@ enum Command {
         /// Then play the motion to a VMC receiver in real time (see `drumsim vmc`).
         #[command(flatten)]
         vmc: VmcArgs,
+        /// Then play the render's contact messages to a sound server (`drumsim sound`, or any
+        /// OSC synth) in real time, each in a bundle tagged 100 ms ahead (with --vmc, together
+        /// with the motion). SONG.wav is written as always.
+        #[arg(long, value_name = "udp://HOST:PORT", conflicts_with = "view")]
+        sound_to: Option<String>,
     },
     /// Write OUT/SONG.mp4: the viewer's scene drawn frame by frame in headless Chromium, with
     /// the song's audio, encoded by ffmpeg (H.264 and AAC).
@@ -183,6 +188,11 @@ enum Command {
         lookahead_ms: Option<f32>,
         #[arg(long, value_enum, default_value_t = SoundMode::Direct)]
         sound: SoundMode,
+        /// Send the contact messages to a sound server (`drumsim sound --listen ...`, or any
+        /// OSC synth) instead of playing them here: each in an OSC bundle tagged with when it
+        /// is to sound, --lookahead-ms after its note (default 20 ms here).
+        #[arg(long, value_name = "udp://HOST:PORT")]
+        sound_to: Option<String>,
         #[arg(long)]
         kit: Option<PathBuf>,
         #[arg(long, default_value = "gm")]
@@ -213,6 +223,25 @@ enum Command {
         kit: Option<PathBuf>,
         #[arg(long, default_value = "audition")]
         out: PathBuf,
+    },
+    /// A sound server: plays the contact, hi-hat and choke messages that arrive over UDP
+    /// (from `live --sound-to`, `render --sound-to` or any OSC sender) through the speakers,
+    /// each time-tagged bundle at its tag.
+    Sound {
+        /// Where to listen: udp://HOST:PORT (udp://127.0.0.1:0 picks a free port, printed).
+        #[arg(long, value_name = "udp://HOST:PORT")]
+        listen: String,
+        #[arg(long)]
+        audio: Option<String>,
+        /// The kit whose pieces the messages name (the sender's).
+        #[arg(long)]
+        kit: Option<PathBuf>,
+        /// Messages without a time tag sound this long after they arrive (0-1000 ms).
+        #[arg(long, default_value_t = 0.0)]
+        latency_ms: f32,
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration_s: Option<f64>,
     },
     /// List MIDI inputs and audio outputs.
     Devices,
@@ -389,6 +418,8 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::render::RenderInputError>()
             || e.is::<drumsim::sound::event::UnknownPiece>()
             || e.is::<drumsim::live::LiveInputError>()
+            || e.is::<drumsim::interaction::remote::AddressError>()
+            || e.downcast_ref::<drumsim::interaction::play_to::PlayError>().is_some_and(|e| !e.is_io())
             || e.is::<drumsim::body::sim::DrummerError>()
             || e.is::<drumsim::body::report::TrajectoryError>()
             || e.is::<drumsim::motion::corpus::CorpusError>()
@@ -450,7 +481,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             view,
             port,
             vmc,
+            sound_to,
         } => {
+            let sound_to = sound_to.map(|s| drumsim::interaction::remote::udp_address("--sound-to", &s)).transpose()?;
             if vmc.vmc.is_some() && (view || no_motion) {
                 return Err(drumsim::render::RenderInputError::Unsupported(
                     "--vmc plays the render's motion: it goes with neither --view nor --no-motion".into(),
@@ -480,7 +513,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let report = drumsim::render::render_file(&song, &opts)?;
             eprintln!("{report}");
-            match shown {
+            let played = match sound_to {
+                Some(to) => {
+                    let msgs = drumsim::interaction::play_to::read_messages(&report.contacts_json)?;
+                    eprintln!("sound: playing {} messages to udp://{to} in real time; Ctrl-C stops", msgs.len());
+                    let ahead = std::time::Duration::from_millis(100);
+                    Some(std::thread::spawn(move || drumsim::interaction::play_to::play(&msgs, to, ahead)))
+                }
+                None => None,
+            };
+            let result = match shown {
                 Some(path) if vmc.is_some() => {
                     let report = drumsim::vmc::play_render(&path, vmc.as_ref().expect("checked"), true)?;
                     eprintln!("{report}");
@@ -492,9 +534,34 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     Ok(())
                 }
                 _ => Ok(()),
+            };
+            if let Some(played) = played {
+                let report = played.join().map_err(|_| anyhow::anyhow!("the sound sender panicked"))??;
+                eprintln!("{report}");
             }
+            result
         }
-        Command::Live { midi, audio, lookahead_ms, sound, kit, map, channel, duration_s, view, port, open, vmc } => {
+        Command::Sound { listen, audio, kit, latency_ms, duration_s } => {
+            let listen = drumsim::interaction::remote::udp_address("--listen", &listen)?;
+            let opts =
+                drumsim::sound_server::ServerOptions { listen, audio_device: audio, kit, latency_ms, duration_s };
+            drumsim::sound_server::run(&opts)
+        }
+        Command::Live {
+            midi,
+            audio,
+            lookahead_ms,
+            sound,
+            sound_to,
+            kit,
+            map,
+            channel,
+            duration_s,
+            view,
+            port,
+            open,
+            vmc,
+        } => {
             if matches!(sound, SoundMode::Physical) {
                 return Err(physical_not_built());
             }
@@ -510,10 +577,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 open,
                 vmc,
             });
+            let sound_to = sound_to.map(|s| drumsim::interaction::remote::udp_address("--sound-to", &s)).transpose()?;
+            let sound_ms = match (sound_to, shown) {
+                (Some(_), true) => drumsim::live::REMOTE_LOOKAHEAD_MS,
+                (Some(_), false) => lookahead_ms.unwrap_or(drumsim::live::REMOTE_LOOKAHEAD_MS),
+                (None, true) => 0.0,
+                (None, false) => lookahead_ms.unwrap_or(0.0),
+            };
             let opts = drumsim::live::LiveOptions {
                 midi_port: midi,
                 audio_device: audio,
-                lookahead_ms: if shown { 0.0 } else { lookahead_ms.unwrap_or(0.0) },
+                sound_to,
+                lookahead_ms: sound_ms,
                 kit,
                 map,
                 channel,

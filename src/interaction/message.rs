@@ -2,7 +2,7 @@
 //! Encoding reuses a caller's buffer; decoding allocates, so it stays off the audio thread.
 
 use rosc::{OscBundle, OscMessage, OscPacket, OscTime, OscType};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 pub const CONTACT_ADDR: &str = "/drumsim/contact";
 pub const HIHAT_ADDR: &str = "/drumsim/hihat";
@@ -31,7 +31,7 @@ impl Limb {
 }
 
 /// A stick tip or beater meeting a surface.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ContactMessage {
     pub piece: String,
     pub time_s: f32,
@@ -46,12 +46,17 @@ pub struct ContactMessage {
     pub impulse_ns: f32,
     /// Tip stiffness scale: wood tip 1.0, softer below.
     pub hardness: f32,
-    #[serde(serialize_with = "limb_index")]
+    #[serde(serialize_with = "limb_index", deserialize_with = "limb_from_index")]
     pub limb: Limb,
 }
 
 fn limb_index<S: serde::Serializer>(limb: &Limb, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_i32(*limb as i32)
+}
+
+fn limb_from_index<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Limb, D::Error> {
+    let i = i32::deserialize(d)?;
+    Limb::from_index(i).ok_or_else(|| serde::de::Error::custom(format!("limb {i} is not 0..=3")))
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -136,18 +141,63 @@ pub fn encode_bundle(msgs: &[Message], time: OscTime, buf: &mut Vec<u8>) -> Resu
 
 /// Decode a packet (a message or a bundle, nested bundles flattened) into messages.
 pub fn decode(bytes: &[u8]) -> Result<Vec<Message>, MessageError> {
-    let (_, packet) = rosc::decoder::decode_udp(bytes).map_err(|e| MessageError::Decode(e.to_string()))?;
+    Ok(decode_timed(bytes)?.into_iter().map(|(_, m)| m).collect())
+}
+
+/// Bundles nest at most this deep (the OSC decoder recurses into each level; a datagram of
+/// nothing but nested bundle headers would nest 3,000 deep).
+pub const MAX_BUNDLE_DEPTH: usize = 8;
+
+/// [`decode`], each message with the time tag of the bundle it came in (the innermost), or
+/// None for a bare message or a bundle tagged "immediately".
+pub fn decode_timed(bytes: &[u8]) -> Result<Vec<(Option<OscTime>, Message)>, MessageError> {
+    if !nesting_within(bytes, MAX_BUNDLE_DEPTH) {
+        return Err(MessageError::Decode(format!("bundles nested deeper than {MAX_BUNDLE_DEPTH}")));
+    }
+    let (rest, packet) = rosc::decoder::decode_udp(bytes).map_err(|e| MessageError::Decode(e.to_string()))?;
+    if !rest.is_empty() {
+        // A bundle's elements end at the first that does not decode: a truncated datagram.
+        return Err(MessageError::Decode(format!("{} bytes after the packet do not decode (truncated?)", rest.len())));
+    }
     let mut out = Vec::new();
-    flatten(packet, &mut out)?;
+    flatten(packet, None, &mut out)?;
     Ok(out)
 }
 
-fn flatten(packet: OscPacket, out: &mut Vec<Message>) -> Result<(), MessageError> {
+const BUNDLE_TAG: &[u8] = b"#bundle\0";
+
+/// True when the bundles in `bytes` nest no deeper than `depth` (a walk over the element
+/// sizes, before the decoder recurses; malformed sizes are left for the decoder to refuse).
+fn nesting_within(bytes: &[u8], depth: usize) -> bool {
+    if !bytes.starts_with(BUNDLE_TAG) {
+        return true;
+    }
+    if depth == 0 {
+        return false;
+    }
+    let mut rest = bytes.get(16..).unwrap_or_default();
+    while let Some(size) = rest.get(..4).map(|b| u32::from_be_bytes([b[0], b[1], b[2], b[3]]) as usize) {
+        let Some(element) = rest.get(4..4 + size) else { return true };
+        if !nesting_within(element, depth - 1) {
+            return false;
+        }
+        rest = &rest[4 + size..];
+    }
+    true
+}
+
+fn flatten(
+    packet: OscPacket,
+    time: Option<OscTime>,
+    out: &mut Vec<(Option<OscTime>, Message)>,
+) -> Result<(), MessageError> {
     match packet {
-        OscPacket::Message(m) => out.push(from_osc(m)?),
+        OscPacket::Message(m) => out.push((time, from_osc(m)?)),
         OscPacket::Bundle(b) => {
+            let immediately = OscTime { seconds: 0, fractional: 1 };
+            let time = if b.timetag == immediately { time } else { Some(b.timetag) };
             for p in b.content {
-                flatten(p, out)?;
+                flatten(p, time, out)?;
             }
         }
     }
@@ -161,6 +211,9 @@ fn from_osc(m: OscMessage) -> Result<Message, MessageError> {
         CONTACT_ADDR => match m.args.as_slice() {
             [S(piece), F(t), F(v), F(mass), F(x), F(y), F(imp), F(h), I(limb)] => {
                 let limb = Limb::from_index(*limb).ok_or_else(|| bad("limb 0..=3"))?;
+                if ![t, v, mass, x, y, imp, h].iter().all(|f| f.is_finite()) {
+                    return Err(bad("finite numbers"));
+                }
                 Ok(Message::Contact(ContactMessage {
                     piece: piece.clone(),
                     time_s: *t,
@@ -176,11 +229,13 @@ fn from_osc(m: OscMessage) -> Result<Message, MessageError> {
             _ => Err(bad(",sfffffffi")),
         },
         HIHAT_ADDR => match m.args.as_slice() {
-            [F(t), F(o)] => Ok(Message::HiHat { time_s: *t, openness: *o }),
+            [F(t), F(o)] if t.is_finite() && o.is_finite() => Ok(Message::HiHat { time_s: *t, openness: *o }),
+            [F(_), F(_)] => Err(bad("finite numbers")),
             _ => Err(bad(",ff")),
         },
         CHOKE_ADDR => match m.args.as_slice() {
-            [S(piece), F(t)] => Ok(Message::Choke { piece: piece.clone(), time_s: *t }),
+            [S(piece), F(t)] if t.is_finite() => Ok(Message::Choke { piece: piece.clone(), time_s: *t }),
+            [S(_), F(_)] => Err(bad("finite numbers")),
             _ => Err(bad(",sf")),
         },
         other => Err(MessageError::UnknownAddress(other.to_string())),
@@ -231,5 +286,51 @@ mod tests {
         let bytes = rosc::encoder::encode(&pkt).unwrap();
         let err = decode(&bytes).unwrap_err().to_string();
         assert!(err.contains("/drumsim/hihat") && err.contains(",ff"), "{err}");
+    }
+
+    #[test]
+    fn timed_decode_gives_each_message_its_bundles_time_tag() {
+        let at = OscTime { seconds: 3_900_000_000, fractional: 1 << 31 };
+        let mut buf = Vec::new();
+        encode_bundle(&[contact()], at, &mut buf).unwrap();
+        assert_eq!(decode_timed(&buf).unwrap(), vec![(Some(at), contact())]);
+        encode(&contact(), &mut buf).unwrap();
+        assert_eq!(decode_timed(&buf).unwrap(), vec![(None, contact())], "a bare message has no time");
+        encode_bundle(&[contact()], OscTime { seconds: 0, fractional: 1 }, &mut buf).unwrap();
+        assert_eq!(decode_timed(&buf).unwrap()[0].0, None, "'immediately' is no time");
+    }
+
+    #[test]
+    fn numbers_that_are_not_finite_are_refused_naming_the_message() {
+        let Message::Contact(mut c) = contact() else { unreachable!() };
+        c.speed_mps = f32::NAN;
+        let mut buf = Vec::new();
+        encode(&Message::Contact(c), &mut buf).unwrap();
+        let err = decode(&buf).unwrap_err().to_string();
+        assert!(err.contains("/drumsim/contact") && err.contains("finite"), "{err}");
+        encode(&Message::HiHat { time_s: f32::INFINITY, openness: 0.5 }, &mut buf).unwrap();
+        assert!(decode(&buf).unwrap_err().to_string().contains("finite"));
+    }
+
+    #[test]
+    fn bundles_nested_past_the_limit_are_refused_before_the_decoder_recurses() {
+        let nest = |depth: usize| {
+            let mut buf = Vec::new();
+            encode(&contact(), &mut buf).unwrap();
+            for _ in 0..depth {
+                let mut outer = BUNDLE_TAG.to_vec();
+                outer.extend_from_slice(&[0, 0, 0, 0, 0, 0, 0, 1]);
+                outer.extend_from_slice(&(buf.len() as u32).to_be_bytes());
+                outer.extend_from_slice(&buf);
+                buf = outer;
+            }
+            buf
+        };
+        assert_eq!(decode(&nest(MAX_BUNDLE_DEPTH)).unwrap(), vec![contact()]);
+        let err = decode(&nest(MAX_BUNDLE_DEPTH + 1)).unwrap_err().to_string();
+        assert!(err.contains("nested deeper"), "{err}");
+        // A whole datagram of bundle headers, as a hostile sender would send.
+        let err = decode(&nest(3000)).unwrap_err().to_string();
+        assert!(err.contains("nested deeper"), "{err}");
     }
 }

@@ -3,6 +3,8 @@
 
 pub mod direct;
 pub mod message;
+pub mod play_to;
+pub mod remote;
 pub mod transport;
 
-pub use message::{decode, encode, ContactMessage, Limb, Message, MessageError};
+pub use message::{decode, decode_timed, encode, encode_bundle, ContactMessage, Limb, Message, MessageError};

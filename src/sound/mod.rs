@@ -10,6 +10,7 @@ pub mod engine;
 pub mod event;
 pub mod limiter;
 pub mod modes;
+pub mod net_feed;
 pub mod output;
 pub mod voice;
 pub mod wav;

@@ -211,15 +211,26 @@ impl EventFeed {
     }
 
     fn push(&mut self, msg: &Message, received: Instant) -> Result<(), String> {
-        let ev = SoundEvent::from_message(msg, &self.kit, self.sample_rate_hz).map_err(|e| self.bad(e.to_string()))?;
         let arrival = self.clock.arrival(msg.time_s(), received);
+        self.push_at(msg, arrival)
+    }
+
+    /// Queue `msg` to sound at `arrival` (plus the output's lookahead), whatever its time.
+    pub fn push_at(&mut self, msg: &Message, arrival: Instant) -> Result<(), String> {
+        let ev = SoundEvent::from_message(msg, &self.kit, self.sample_rate_hz).map_err(|e| self.bad(e.to_string()))?;
         if self.ring.push(TimedEvent { arrival, kind: ev.kind }).is_err() {
             self.stats.dropped_events.fetch_add(1, Relaxed);
         }
         Ok(())
     }
 
-    fn bad(&self, message: String) -> String {
+    /// The counters this feed adds to.
+    pub fn stats(&self) -> &Arc<OutputStats> {
+        &self.stats
+    }
+
+    /// Count a message refused before it reached the feed; returns its description.
+    pub fn bad(&self, message: String) -> String {
         self.stats.bad_messages.fetch_add(1, Relaxed);
         message
     }
