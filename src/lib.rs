@@ -13,6 +13,7 @@ pub mod files;
 pub mod interaction;
 pub mod kit;
 pub mod live;
+pub mod live_body;
 pub mod midi;
 pub mod motion;
 pub mod outputs;

@@ -62,6 +62,9 @@ pub struct LiveOptions {
     pub avatar: Option<crate::avatar::AvatarOptions>,
     /// Send the messages to a sound server there instead of playing them here.
     pub sound_to: Option<std::net::SocketAddr>,
+    /// The simulated body plays the notes and its contacts are the sound (`--sound
+    /// physical`; `lookahead_ms` is then how long after its note each stroke lands).
+    pub physical: bool,
 }
 
 /// The lookahead of `--sound-to` when none is given, ms: room for a local network's jitter.
@@ -119,10 +122,15 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
         Some(_) => None,
         None => Some(find_device(opts)?),
     };
-    // The avatar loads before the sound starts, so that its loading never holds up the audio.
+    // The avatar and the body load before the sound starts, so that their loading never
+    // holds up the audio.
     let prepared = match &opts.avatar {
         Some(a) => Some(crate::avatar::prepare(&kit, &map, a)?),
         None => None,
+    };
+    let body = match opts.physical {
+        true => Some(crate::live_body::prepare(&kit, &map, f64::from(opts.lookahead_ms) / 1e3)?),
+        false => None,
     };
     let lookahead = Duration::from_secs_f32(opts.lookahead_ms / 1000.0);
     let (ring_tx, ring_rx) = rtrb::RingBuffer::new(SOUND_RING);
@@ -157,9 +165,30 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
         (None, None) => unreachable!("an audio output or a sound server"),
     };
     let c = counters.clone();
+    let (route, body) = match body {
+        None => (Route::Direct(out), None),
+        Some(prepared) => {
+            let (events_tx, events_rx) = crossbeam_channel::bounded(MIDI_QUEUE);
+            let (messages_tx, messages_rx) = crossbeam_channel::bounded(MIDI_QUEUE);
+            let (mut out, c, mut buf) = (out, counters.clone(), Vec::with_capacity(256));
+            let send = move |msg: &Message| match out.send(msg, &mut buf, &c) {
+                Ok(()) => {
+                    c.messages.fetch_add(1, Relaxed);
+                    true
+                }
+                Err(_) => {
+                    c.transport_dropped.fetch_add(1, Relaxed);
+                    false
+                }
+            };
+            let lookahead_s = f64::from(opts.lookahead_ms) / 1e3;
+            let body = crate::live_body::start(prepared, events_rx, messages_rx, epoch, lookahead_s, send)?;
+            (Route::Physical { events: events_tx, messages: messages_tx }, Some(body))
+        }
+    };
     let interaction = thread::Builder::new()
         .name("drumsim-interaction".into())
-        .spawn(move || interact(director, &event_rx, out, avatar_tx, &c))?;
+        .spawn(move || interact(director, &event_rx, route, avatar_tx, &c))?;
 
     let sink = EventSink {
         parser: MessageParser { cc4_closed: map.cc4_closed, ..MessageParser::new(channel) },
@@ -190,6 +219,7 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
     let result = supervise(&mut input, audio.as_ref(), &counters, opts.duration_s);
     drop(input); // closes the MIDI port: the interaction thread ends, then the feed thread
     interaction.join().map_err(|_| anyhow::anyhow!("the interaction thread panicked"))?;
+    let body_report = body.map(|b| b.stop()); // its out thread ends, then the feed thread
     if let Some(feeder) = feeder {
         feeder.join().map_err(|_| anyhow::anyhow!("the feed thread panicked"))?.context("message transport")?;
     }
@@ -202,6 +232,9 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
             "drumsim live: {} messages sent to udp://{to}, {refused} refused{hint}",
             counters.messages.load(Relaxed)
         );
+    }
+    if let Some(report) = body_report {
+        eprintln!("drumsim live: {report}");
     }
     if let Some(a) = avatar {
         let dropped = counters.avatar_dropped.load(Relaxed);
@@ -326,12 +359,23 @@ impl Out {
     }
 }
 
-/// The interaction thread: drum events -> messages -> OSC packets, until the input closes;
-/// each event also goes to the avatar, when there is one (never waiting for it).
+/// Where the interaction thread's work goes.
+enum Route {
+    /// Direct mode: the notes' contact messages, to the sound.
+    Direct(Out),
+    /// Physical mode: the events to the body's planner; only chokes (a hand grabbing a
+    /// cymbal, which the body does not do) go to the sound as messages, through the body's
+    /// out thread.
+    Physical { events: crossbeam_channel::Sender<LiveEvent>, messages: crossbeam_channel::Sender<Message> },
+}
+
+/// The interaction thread: drum events -> messages -> OSC packets (or, in physical mode, to
+/// the body), until the input closes; each event also goes to the avatar, when there is one
+/// (never waiting for it).
 fn interact(
     mut director: Director,
     events: &Receiver<LiveEvent>,
-    mut out: Out,
+    mut route: Route,
     avatar: Option<crossbeam_channel::Sender<LiveEvent>>,
     c: &Counters,
 ) {
@@ -344,16 +388,30 @@ fn interact(
             }
         }
         director.on_event(&ev.event, &mut messages);
-        for msg in messages.drain(..) {
-            match out.send(&msg, &mut buf, c) {
-                Ok(()) => c.messages.fetch_add(1, Relaxed),
-                Err(TransportError::Disconnected) => return,
-                Err(TransportError::Io(e)) => {
-                    eprintln!("drumsim live: a message was not sent: {e}");
-                    c.transport_dropped.fetch_add(1, Relaxed)
+        match &mut route {
+            Route::Direct(out) => {
+                for msg in messages.drain(..) {
+                    match out.send(&msg, &mut buf, c) {
+                        Ok(()) => c.messages.fetch_add(1, Relaxed),
+                        Err(TransportError::Disconnected) => return,
+                        Err(TransportError::Io(e)) => {
+                            eprintln!("drumsim live: a message was not sent: {e}");
+                            c.transport_dropped.fetch_add(1, Relaxed)
+                        }
+                        Err(_) => c.transport_dropped.fetch_add(1, Relaxed),
+                    };
                 }
-                Err(_) => c.transport_dropped.fetch_add(1, Relaxed),
-            };
+            }
+            Route::Physical { events, messages: chokes } => {
+                if events.try_send(ev).is_err() {
+                    c.transport_dropped.fetch_add(1, Relaxed);
+                }
+                for msg in messages.drain(..).filter(|m| matches!(m, Message::Choke { .. })) {
+                    if chokes.try_send(msg).is_err() {
+                        c.transport_dropped.fetch_add(1, Relaxed);
+                    }
+                }
+            }
         }
     }
 }

@@ -446,7 +446,9 @@ fn exit_code(err: &anyhow::Error) -> u8 {
 
 fn physical_not_built() -> anyhow::Error {
     anyhow::Error::new(drumsim::render::RenderInputError::Unsupported(
-        "live --sound physical is not built yet (render --sound physical is); use --sound direct".into(),
+        "live --sound physical with --view or --vmc is not built yet (the avatar follows the planned motion \
+         in --sound direct); use one or the other"
+            .into(),
     ))
 }
 
@@ -562,11 +564,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             open,
             vmc,
         } => {
-            if matches!(sound, SoundMode::Physical) {
-                return Err(physical_not_built());
-            }
+            let physical = matches!(sound, SoundMode::Physical);
             let vmc = vmc.options(None)?;
             let shown = view || vmc.is_some();
+            if physical && shown {
+                return Err(physical_not_built());
+            }
             let avatar_ms = lookahead_ms.unwrap_or(drumsim::avatar::DEFAULT_LOOKAHEAD_MS);
             if shown && !(0.0..=1000.0).contains(&avatar_ms) {
                 return Err(drumsim::live::LiveInputError::Lookahead(avatar_ms).into());
@@ -579,6 +582,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             });
             let sound_to = sound_to.map(|s| drumsim::interaction::remote::udp_address("--sound-to", &s)).transpose()?;
             let sound_ms = match (sound_to, shown) {
+                _ if physical => lookahead_ms.unwrap_or(drumsim::live_body::DEFAULT_LOOKAHEAD_MS),
                 (Some(_), true) => drumsim::live::REMOTE_LOOKAHEAD_MS,
                 (Some(_), false) => lookahead_ms.unwrap_or(drumsim::live::REMOTE_LOOKAHEAD_MS),
                 (None, true) => 0.0,
@@ -594,6 +598,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 channel,
                 duration_s,
                 avatar,
+                physical,
             };
             drumsim::live::run(&opts)
         }

@@ -48,8 +48,13 @@ pub struct Strike {
 impl Strike {
     /// The contact message of DESIGN.md section 6 for this strike.
     pub fn message(&self, surfaces: &[Surface]) -> ContactMessage {
+        self.message_named(&surfaces[self.surface].id)
+    }
+
+    /// [`Self::message`] with the struck surface's id given.
+    pub fn message_named(&self, piece: &str) -> ContactMessage {
         ContactMessage {
-            piece: surfaces[self.surface].id.clone(),
+            piece: piece.to_string(),
             time_s: self.time_s as f32,
             speed_mps: self.speed_mps,
             mass_kg: self.mass_kg,

@@ -11,6 +11,7 @@
 
 use super::hands::HandModel;
 use super::pipeline::{self, MotionError};
+use super::plan::PlannedHands;
 use super::track::{Motion, MotionFrame, Pose, FPS};
 use super::upper::Library;
 use crate::kit::Kit;
@@ -42,6 +43,10 @@ pub struct WindowPlan {
     pub motion: Motion,
     /// The notes in the window the kit plays: (session time, piece id, velocity).
     pub notes: Vec<(f64, String, u8)>,
+    /// The planned strokes of both hands, on the session clock (for the live physical body).
+    pub hands: PlannedHands,
+    /// The window's notes and pedal data, times from `start_s` (for the body's pedals).
+    pub perf: Performance,
 }
 
 impl WindowPlan {
@@ -97,7 +102,9 @@ impl WindowMotion {
 
     /// Where the window of a plan made at `now_s` starts.
     pub fn window_start(&self, now_s: f64) -> f64 {
-        (now_s - self.lookahead_s - HISTORY_S).max(0.0)
+        // On a 1/64 s grid: a note's time moved into the window and back onto the session
+        // clock ([`crate::motion::plan::PlannedHands::shifted`]) comes back bit for bit.
+        ((now_s - self.lookahead_s - HISTORY_S).max(0.0) * 64.0).floor() / 64.0
     }
 
     /// The motion of the window ending at `now_s` (a drummer waiting, while it holds no
@@ -144,7 +151,7 @@ impl WindowMotion {
             })
             .collect();
         debug_assert_eq!(planned.motion.fps, FPS);
-        Ok(WindowPlan { start_s: start, motion: planned.motion, notes })
+        Ok(WindowPlan { start_s: start, motion: planned.motion, notes, hands: planned.hands.shifted(start), perf })
     }
 }
 

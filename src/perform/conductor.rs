@@ -1,6 +1,6 @@
 //! The conductor: the body driven by 250 Hz tip targets, one task period (40 physics steps
 //! at 10 kHz) at a time, Algorithm 2's loop. The offline render calls [`Conductor::period`];
-//! the live physical mode (not built yet) is to call the same, paced by the audio clock.
+//! the live body (`paced.rs`) calls the same on the wall clock, swapping in newer plans.
 
 use super::feet::PedalTargets;
 use super::targets::{TargetSettings, TipTargets};
@@ -13,6 +13,7 @@ use crate::body::strokes::TASK_HZ;
 use crate::kit::{Kit, PieceKind};
 use crate::midi::{NoteMap, Performance};
 use crate::motion::pipeline::Planned;
+use crate::motion::plan::PlannedHands;
 use rapier3d::math::Vector;
 
 /// Physics steps per task period (10 kHz / 250 Hz).
@@ -40,6 +41,26 @@ pub struct BodyState {
     kick_touched: Option<(f64, f64)>,
     /// Performance time of the next period's start, seconds (negative in the preroll).
     t: f64,
+}
+
+/// What tip targets need of the drummer: its stick's bead and how far it is held from the
+/// tip. Copied out so that another thread can make targets for the body (live play).
+#[derive(Debug, Clone, Copy)]
+pub struct TargetShape {
+    pub bead_m: f32,
+    pub shaft_m: f32,
+}
+
+impl TargetShape {
+    pub fn of(drummer: &Drummer) -> TargetShape {
+        let stick = &drummer.skel.stick;
+        TargetShape { bead_m: stick.radius_m, shaft_m: (stick.tip() - stick.grip).length() }
+    }
+
+    /// The tip targets of a plan.
+    pub fn targets(&self, hands: &PlannedHands) -> TipTargets {
+        TipTargets::new(hands, self.bead_m, self.shaft_m, TargetSettings::default())
+    }
 }
 
 /// The body, its targets and where the song stands.
@@ -83,12 +104,35 @@ impl Conductor {
         settings: DrummerSettings,
     ) -> Result<Conductor, DrummerError> {
         let drummer = Drummer::new(kit, settings)?;
-        let bead = drummer.skel.stick.radius_m;
-        let stick = &drummer.skel.stick;
-        let targets =
-            TipTargets::new(&planned.hands, bead, (stick.tip() - stick.grip).length(), TargetSettings::default());
+        let targets = TargetShape::of(&drummer).targets(&planned.hands);
         let bodies = PedalBodies::new(kit);
         let pedal_targets = bodies.as_ref().map(|b| PedalTargets::new(perf, map, kit, b, &planned.motion));
+        Ok(Conductor::assemble(kit, drummer, targets, bodies, pedal_targets, -PREROLL_S))
+    }
+
+    /// The live body: it starts at session time `t0` on the first window's targets, and
+    /// takes each newer window's with [`Self::replan`].
+    pub fn live(
+        kit: &Kit,
+        settings: DrummerSettings,
+        targets: TipTargets,
+        pedal_targets: Option<PedalTargets>,
+        t0: f64,
+    ) -> Result<Conductor, DrummerError> {
+        let drummer = Drummer::new(kit, settings)?;
+        let bodies = PedalBodies::new(kit);
+        let pedal_targets = pedal_targets.filter(|_| bodies.is_some());
+        Ok(Conductor::assemble(kit, drummer, targets, bodies, pedal_targets, t0))
+    }
+
+    fn assemble(
+        kit: &Kit,
+        drummer: Drummer,
+        targets: TipTargets,
+        bodies: Option<PedalBodies>,
+        pedal_targets: Option<PedalTargets>,
+        t: f64,
+    ) -> Conductor {
         let plates = drummer
             .surfaces()
             .iter()
@@ -102,10 +146,30 @@ impl Conductor {
             .enumerate()
             .map(|(i, s)| s.id.strip_suffix("_rim").and_then(|d| kit.index_of(d)).unwrap_or(i))
             .collect();
-        let t = -PREROLL_S;
         let from = [targets.at(0, t, None), targets.at(1, t, None)];
         let state = BodyState { drummer, from, touched: [None; 2], pedals: bodies, kick_touched: None, t };
-        Ok(Conductor { state, targets, pedal_targets, plates, piece_of, aims: [from[0].tip, from[1].tip] })
+        Conductor { state, targets, pedal_targets, plates, piece_of, aims: [from[0].tip, from[1].tip] }
+    }
+
+    /// Follow a newer plan from the next period on (live play); the plan given up is
+    /// returned, to be dropped off the physics thread.
+    pub fn replan(
+        &mut self,
+        targets: TipTargets,
+        pedal_targets: Option<PedalTargets>,
+    ) -> (TipTargets, Option<PedalTargets>) {
+        let old = std::mem::replace(&mut self.targets, targets);
+        let old_pedals = match (pedal_targets, &mut self.pedal_targets) {
+            (Some(new), Some(current)) => Some(std::mem::replace(current, new)),
+            _ => None,
+        };
+        (old, old_pedals)
+    }
+
+    /// Let `n` task periods go by unplayed (a live body that fell behind the wall clock):
+    /// the body stays as it is and takes up the targets of the period after them.
+    pub fn skip_periods(&mut self, n: usize) {
+        self.state.t += n as f64 / TASK_HZ;
     }
 
     /// A copy of where the body stands, to go back to with [`Self::restore`].
@@ -136,6 +200,11 @@ impl Conductor {
     /// Performance time of the next period, seconds.
     pub fn time_s(&self) -> f64 {
         self.state.t
+    }
+
+    /// What tip targets for this body need.
+    pub fn target_shape(&self) -> TargetShape {
+        TargetShape::of(&self.state.drummer)
     }
 
     pub fn drummer(&self) -> &Drummer {

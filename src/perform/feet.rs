@@ -66,6 +66,8 @@ pub struct PedalTargets {
     /// The hi-hat's travel, m.
     travel: f32,
     fps: f64,
+    /// The time of `lift`'s first frame, s ([`PedalTargets::shifted`]).
+    origin_s: f64,
 }
 
 impl PedalTargets {
@@ -99,7 +101,16 @@ impl PedalTargets {
                 lift[f] = lift[f].max(lift[f - 1].min(soft) - step);
             }
         }
-        PedalTargets { kicks, rest, contact, lift, chicks, travel, fps: motion.fps }
+        PedalTargets { kicks, rest, contact, lift, chicks, travel, fps: motion.fps, origin_s: 0.0 }
+    }
+
+    /// The same targets `by` seconds later (a live window's, put on the session clock).
+    pub fn shifted(mut self, by: f64) -> PedalTargets {
+        self.origin_s += by;
+        for k in self.kicks.iter_mut().chain(self.chicks.iter_mut()) {
+            k.0 += by;
+        }
+        self
     }
 
     /// The onset of the kick note the beater is playing at `t` (the next one, or the last
@@ -128,7 +139,7 @@ impl PedalTargets {
         let Some(&(onset, w)) = i.checked_sub(1).and_then(|j| self.kicks.get(j)) else { return rest };
         let since = t - onset;
         let tc = match touched {
-            Some((on, tc)) if on == onset => tc,
+            Some((on, tc)) if (on - onset).abs() < 1e-9 => tc,
             _ if since < PRESS_S => {
                 let pos = (self.contact + w * since as f32).min(self.contact + PRESS_RAD);
                 return PedalTarget { pos, vel: if pos < self.contact + PRESS_RAD { w } else { 0.0 }, acc: 0.0 };
@@ -147,7 +158,7 @@ impl PedalTargets {
         if self.lift.is_empty() {
             return PedalTarget::default();
         }
-        let x = (t * self.fps).clamp(0.0, (self.lift.len() - 1) as f64);
+        let x = ((t - self.origin_s) * self.fps).clamp(0.0, (self.lift.len() - 1) as f64);
         let k = x.floor() as usize;
         let k1 = (k + 1).min(self.lift.len() - 1);
         let a = (x - k as f64) as f32;

@@ -177,6 +177,8 @@ pub struct Player {
     next: usize,
     frame: u64,
     pub recorded: Vec<f32>,
+    /// (first frame of a period, wall time as Unix seconds when its callback ran).
+    pub clock: Vec<(u64, f64)>,
     progress: Arc<AtomicU64>,
 }
 
@@ -187,6 +189,10 @@ impl ProcessHandler for Player {
             return Control::Continue;
         }
         let (start, n) = (self.frame, u64::from(ps.n_frames()));
+        if self.clock.len() < self.clock.capacity() {
+            let now = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+            self.clock.push((start, now.as_secs_f64()));
+        }
         while let Some((t, bytes)) = self.schedule.get(self.next).filter(|(t, _)| *t < start + n) {
             let _ = writer.write(&RawMidi { time: t.saturating_sub(start) as u32, bytes });
             self.next += 1;
@@ -224,6 +230,7 @@ pub fn player(
         next: 0,
         frame: 0,
         recorded: Vec::with_capacity(record_frames),
+        clock: Vec::with_capacity(record_frames / PERIOD as usize + 16),
         progress: progress.clone(),
     };
     (client.activate_async((), p).unwrap(), armed, progress)

@@ -35,6 +35,9 @@ pub struct PlannedHands {
     /// the strike point.
     notes: [Vec<(HandNote, [f32; 3])>; 2],
     settings: StrokeSettings,
+    /// The time of `predicted`'s first frame, s (0 but for a live window's plan moved onto
+    /// the session clock, [`PlannedHands::shifted`]).
+    origin_s: f64,
 }
 
 fn add(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
@@ -118,7 +121,7 @@ pub fn plan_hands(
             per_hand[h].push((*n, sub(n.point, tip)));
         }
     }
-    PlannedHands { predicted: predicted.to_vec(), fps, notes: per_hand, settings }
+    PlannedHands { predicted: predicted.to_vec(), fps, notes: per_hand, settings, origin_s: 0.0 }
 }
 
 impl PlannedHands {
@@ -130,6 +133,16 @@ impl PlannedHands {
     /// The note of `hand` nearest `t` (the one whose stroke holds `t`).
     pub fn note_near(&self, hand: usize, t: f64) -> Option<&HandNote> {
         self.nearest(hand, t).map(|k| &self.notes[hand][k].0)
+    }
+
+    /// The same plan `by` seconds later: every note and every predicted pose (a live
+    /// window's plan, made from time 0 at the window's start, put on the session clock).
+    pub fn shifted(mut self, by: f64) -> PlannedHands {
+        self.origin_s += by;
+        for n in self.notes.iter_mut().flatten() {
+            n.0.time_s += by;
+        }
+        self
     }
 
     /// The same plan with other stroke settings (the offsets onto the strike points stay).
@@ -216,7 +229,8 @@ impl PlannedHands {
 
     /// The planned stick tip of `hand` at `t`.
     pub fn tip(&self, hand: usize, t: f64) -> [f32; 3] {
-        let p = add(predicted_pose(&self.predicted, self.fps, hand, t).stick_tip(), self.offset(hand, t));
+        let p =
+            add(predicted_pose(&self.predicted, self.fps, hand, t - self.origin_s).stick_tip(), self.offset(hand, t));
         let Some(k) = self.nearest(hand, t) else { return p };
         // Within the note's window the tip is drawn onto the stroke line, the normal through
         // the strike point (fully at the hit, fading out with the window): the predicted tip
@@ -251,7 +265,7 @@ impl PlannedHands {
         let (press_m, hold_s) = press;
         let press_s = (press_m / n.speed_mps.max(0.1)) as f64;
         let dt = t - n.time_s;
-        let touched = contact.filter(|&(onset, _)| onset == n.time_s).map(|(_, tc)| tc);
+        let touched = contact.filter(|&(onset, _)| (onset - n.time_s).abs() < 1e-9).map(|(_, tc)| tc);
         let (t_plan, below) = match touched {
             Some(tc) if t >= tc => (n.time_s + (t - tc), 0.0),
             _ if dt < 0.0 => (t, 0.0),
@@ -270,7 +284,7 @@ impl PlannedHands {
     /// surface as [`Self::tip`] (exactly on it at the hit). So the grip keeps the predicted
     /// hand's timing instead of stopping with the tip at every contact.
     pub fn pose(&self, hand: usize, t: f64) -> Pose {
-        let pred = predicted_pose(&self.predicted, self.fps, hand, t);
+        let pred = predicted_pose(&self.predicted, self.fps, hand, t - self.origin_s);
         let grip = add(pred.pos, self.offset(hand, t));
         let Some(k) = self.nearest(hand, t) else { return Pose { pos: grip, rot: pred.rot } };
         let n = &self.notes[hand][k].0;
@@ -291,7 +305,7 @@ impl PlannedHands {
 
     /// Both hands at `frames` frames of `fps`.
     pub fn sample(&self, fps: f64, frames: usize) -> Vec<[Pose; 2]> {
-        (0..frames).map(|f| [0, 1].map(|h| self.pose(h, f as f64 / fps))).collect()
+        (0..frames).map(|f| [0, 1].map(|h| self.pose(h, self.origin_s + f as f64 / fps))).collect()
     }
 }
 

@@ -1,0 +1,236 @@
+//! The live physical drummer (`drumsim live --sound physical`): the player's notes become
+//! stick-tip and pedal targets, the body plays them at 10 kHz on its own thread, and its
+//! contacts are the sound. Three threads besides live's own:
+//!
+//! ```text
+//! interaction --LiveEvent (bounded, try_send)--> planner
+//! planner   every 50 ms: the motion stage on the last seconds (motion::window), made into
+//!           tip and pedal targets (perform::paced::BodyPlanner)
+//!   --BodyPlan (bounded, try_send)--> body; plans given up come back to be dropped here
+//! body      the conductor's 250 Hz periods on the wall clock (perform::paced::run), each
+//!           `lookahead - LEAD_MS` after its session time; no allocation, lock or wait
+//!   --BodyOut (bounded, try_send)--> out
+//! out       contacts and the hi-hat's openness as contact messages, to live's sound
+//!           (the feed of this process, or a sound server); chokes from the interaction thread
+//! ```
+//! The body plays each note at the note's session time, and its sound is placed
+//! `lookahead` later: the drummer plays `--lookahead-ms` behind the player, sample-accurately.
+
+use crate::body::sim::{Drummer, DrummerSettings};
+use crate::interaction::Message;
+use crate::kit::Kit;
+use crate::midi::live::LiveEvent;
+use crate::midi::NoteMap;
+use crate::motion::hands::HandModel;
+use crate::motion::pipeline;
+use crate::motion::window::WindowMotion;
+use crate::perform::conductor::{Conductor, TargetShape};
+use crate::perform::paced::{self, BodyOut, BodyPlanner, PacedClock, PacedStats, Spent};
+use crossbeam_channel::{Receiver, RecvTimeoutError};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
+use std::sync::{Arc, Mutex};
+use std::thread::{self, JoinHandle};
+use std::time::{Duration, Instant};
+
+/// The live physical drummer's default lookahead, ms: a stroke is prepared before it lands
+/// (the stick lifts about 100-200 ms ahead of a note), so the body plays the notes this long
+/// after they were played.
+pub const DEFAULT_LOOKAHEAD_MS: f32 = 250.0;
+/// How far ahead of its sound the body runs, ms: room for a contact to reach the audio
+/// callback (or a sound server) before it is to sound.
+pub const LEAD_MS: f64 = 25.0;
+/// How often the planner makes a new plan.
+pub const PLAN_EVERY: Duration = Duration::from_millis(50);
+/// A note the body learns of less than this before it is to strike it gets a shorter
+/// stroke than the plan would give it (counted), s.
+pub const FULL_STROKE_S: f64 = 0.120;
+
+/// What the planner counts.
+#[derive(Debug, Default)]
+pub struct PlanStats {
+    pub plans: AtomicU64,
+    pub plan_us_max: AtomicU64,
+    pub plan_us_total: AtomicU64,
+    pub failed: AtomicU64,
+    /// Plans the body had not taken yet when a newer one came (the newer replaces it).
+    pub superseded: AtomicU64,
+    /// Notes the body learned of later than [`FULL_STROKE_S`] before their strike.
+    pub short_strokes: AtomicU64,
+    /// Notes planned (the kit plays them).
+    pub notes: AtomicU64,
+    /// Messages the sound had no room for.
+    pub unsent: AtomicU64,
+    pub messages: AtomicU64,
+}
+
+/// What the drummer needs, loaded before the sound starts.
+pub struct Prepared {
+    window: WindowMotion,
+    conductor: Conductor,
+    planner: BodyPlanner,
+    surfaces: Vec<String>,
+}
+
+/// Load the hand model and retrieval library and build the body, waiting.
+pub fn prepare(kit: &Kit, map: &NoteMap, lookahead_s: f64) -> anyhow::Result<Prepared> {
+    let library = pipeline::shipped_library()?;
+    let model = match pipeline::override_weights() {
+        Some(path) => HandModel::load(&path)?,
+        None => HandModel::shipped(),
+    };
+    let settings = DrummerSettings::default();
+    let shape = TargetShape::of(&Drummer::new(kit, settings.clone())?);
+    let planner = BodyPlanner::new(shape, kit, map);
+    let mut window = WindowMotion::new(kit.clone(), map.clone(), model, library, lookahead_s);
+    let first = planner.plan(&window.plan(0.0)?);
+    let t0 = -lookahead_s + LEAD_MS / 1e3;
+    let conductor = Conductor::live(kit, settings, first.targets, first.pedals, t0)?;
+    let surfaces = conductor.drummer().surfaces().iter().map(|s| s.id.clone()).collect();
+    Ok(Prepared { window, conductor, planner, surfaces })
+}
+
+/// The running drummer.
+pub struct LiveBody {
+    stop: Arc<AtomicBool>,
+    threads: Vec<JoinHandle<()>>,
+    pub body: Arc<PacedStats>,
+    pub plans: Arc<PlanStats>,
+    first_error: Arc<Mutex<Option<String>>>,
+}
+
+/// Start the drummer: `events` are the player's events as they arrive (session clock from
+/// `epoch`), `messages` what the interaction thread sends besides (chokes); every message is
+/// handed to `send` (false: the sound had no room for it).
+pub fn start(
+    prepared: Prepared,
+    events: Receiver<LiveEvent>,
+    messages: Receiver<Message>,
+    epoch: Instant,
+    lookahead_s: f64,
+    mut send: impl FnMut(&Message) -> bool + Send + 'static,
+) -> anyhow::Result<LiveBody> {
+    let Prepared { mut window, conductor, planner, surfaces } = prepared;
+    let stop = Arc::new(AtomicBool::new(false));
+    let (body, plans) = (Arc::new(PacedStats::default()), Arc::new(PlanStats::default()));
+    let first_error = Arc::new(Mutex::new(None));
+    let clock = PacedClock { epoch, delay_s: lookahead_s - LEAD_MS / 1e3 };
+    let (plan_tx, plan_rx) = crossbeam_channel::bounded(1);
+    let (spent_tx, spent_rx) = crossbeam_channel::bounded::<Spent>(4);
+    let (out_tx, out_rx) = crossbeam_channel::bounded::<BodyOut>(4096);
+    let planning = {
+        let (stop, stats, first_error) = (stop.clone(), plans.clone(), first_error.clone());
+        let taken_back = plan_rx.clone();
+        thread::Builder::new().name("drumsim-body-plan".into()).spawn(move || {
+            let mut last = Instant::now();
+            let mut newest_note = f64::NEG_INFINITY;
+            while !stop.load(Relaxed) {
+                match events.recv_timeout(PLAN_EVERY / 5) {
+                    Ok(e) => window.push(e.event),
+                    Err(RecvTimeoutError::Timeout) => {}
+                    Err(RecvTimeoutError::Disconnected) => thread::sleep(PLAN_EVERY / 5),
+                }
+                while let Ok(e) = events.try_recv() {
+                    window.push(e.event);
+                }
+                while spent_rx.try_recv().is_ok() {}
+                if last.elapsed() < PLAN_EVERY {
+                    continue;
+                }
+                last = Instant::now();
+                let w = match window.plan(epoch.elapsed().as_secs_f64()) {
+                    Ok(w) => w,
+                    Err(e) => {
+                        stats.failed.fetch_add(1, Relaxed);
+                        first_error.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e.to_string());
+                        continue;
+                    }
+                };
+                let plan = planner.plan(&w);
+                let us = last.elapsed().as_micros() as u64;
+                stats.plans.fetch_add(1, Relaxed);
+                stats.plan_us_total.fetch_add(us, Relaxed);
+                stats.plan_us_max.fetch_max(us, Relaxed);
+                // Notes new in this plan: how long before its strike the body learns of each.
+                let body_now = clock.body_time(Instant::now());
+                for &(t, _, _) in w.notes.iter().filter(|n| n.0 > newest_note) {
+                    stats.notes.fetch_add(1, Relaxed);
+                    if t - body_now < FULL_STROKE_S {
+                        stats.short_strokes.fetch_add(1, Relaxed);
+                    }
+                }
+                newest_note = w.notes.iter().map(|n| n.0).fold(newest_note, f64::max);
+                // The body takes the newest plan: one it has not taken yet is replaced.
+                if let Err(crossbeam_channel::TrySendError::Full(plan)) = plan_tx.try_send(plan) {
+                    if taken_back.try_recv().is_ok() {
+                        stats.superseded.fetch_add(1, Relaxed);
+                    }
+                    let _ = plan_tx.try_send(plan);
+                }
+            }
+        })?
+    };
+    let stepping = {
+        let (stop, stats) = (stop.clone(), body.clone());
+        thread::Builder::new()
+            .name("drumsim-body".into())
+            .spawn(move || paced::run(conductor, clock, &plan_rx, &spent_tx, &out_tx, &stats, &stop))?
+    };
+    let out = {
+        let (stop, stats) = (stop.clone(), plans.clone());
+        thread::Builder::new().name("drumsim-body-out".into()).spawn(move || {
+            let mut forward = |msg: &Message| {
+                stats.messages.fetch_add(1, Relaxed);
+                if !send(msg) {
+                    stats.unsent.fetch_add(1, Relaxed);
+                }
+            };
+            while !stop.load(Relaxed) {
+                crossbeam_channel::select! {
+                    recv(out_rx) -> o => match o {
+                        Ok(BodyOut::Strike(s)) => forward(&Message::Contact(s.message_named(&surfaces[s.surface]))),
+                        Ok(BodyOut::HiHat { time_s, openness }) => {
+                            forward(&Message::HiHat { time_s: time_s as f32, openness })
+                        }
+                        Err(_) => return,
+                    },
+                    recv(messages) -> m => match m {
+                        Ok(m) => forward(&m),
+                        Err(_) => thread::sleep(Duration::from_millis(5)),
+                    },
+                    default(Duration::from_millis(100)) => {}
+                }
+            }
+        })?
+    };
+    Ok(LiveBody { stop, threads: vec![planning, stepping, out], body, plans, first_error })
+}
+
+impl LiveBody {
+    /// Stop the threads and say what they did.
+    pub fn stop(self) -> String {
+        self.stop.store(true, Relaxed);
+        for t in self.threads {
+            let _ = t.join();
+        }
+        let p = &self.plans;
+        let n = p.plans.load(Relaxed).max(1);
+        let mut text = format!(
+            "{}; {} plans ({:.1} ms mean, {:.1} ms max, {} not taken in time, {} failed), {} notes ({} learned of \
+             too late for a full stroke), {} messages ({} the sound had no room for)",
+            self.body.report(),
+            p.plans.load(Relaxed),
+            p.plan_us_total.load(Relaxed) as f64 / n as f64 / 1e3,
+            p.plan_us_max.load(Relaxed) as f64 / 1e3,
+            p.superseded.load(Relaxed),
+            p.failed.load(Relaxed),
+            p.notes.load(Relaxed),
+            p.short_strokes.load(Relaxed),
+            p.messages.load(Relaxed),
+            p.unsent.load(Relaxed),
+        );
+        if let Some(e) = self.first_error.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            text += &format!(" (first failure: {e})");
+        }
+        text
+    }
+}

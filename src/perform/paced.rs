@@ -1,0 +1,208 @@
+//! The live physical drummer's physics: the conductor's task periods on the wall clock.
+//!
+//! The session clock is the live MIDI epoch (an `Instant`), the clock the audio callback
+//! places every event by. The body plays a note at the note's own session time `t`; its
+//! contacts sound at `t + lookahead`. So the body's period ending at `t` is due on the wall
+//! clock at `epoch + t + lookahead - lead`: `lead` ahead of its sound, room for the message to
+//! reach the audio callback (or a sound server) before it is to sound. The plans come from
+//! the motion stage on a sliding window (`motion::window`) made on another thread, as tip
+//! and pedal targets ([`BodyPlanner`]); the physics thread swaps each newer plan in between
+//! two periods and hands the one it gave up back, to be dropped there.
+//!
+//! In steady state the physics thread allocates nothing, takes no lock and never waits on
+//! another thread: plans and plans given up travel through bounded lock-free channels
+//! (`try_recv`, `try_send`), and what the body did leaves as plain [`BodyOut`] values. It
+//! counts (never logs) every period that started late and the worst lateness; when it falls
+//! more than [`CATCH_UP_S`] behind (the machine cannot keep up), it drops the periods it
+//! missed (the body's clock jumps, its state stays), so that it never drifts behind the
+//! sound; the periods dropped are counted.
+
+use super::conductor::{Conductor, TargetShape};
+use super::feet::PedalTargets;
+use super::targets::TipTargets;
+use crate::body::contacts::Strike;
+use crate::body::pedals::PedalBodies;
+use crate::body::strokes::TASK_HZ;
+use crate::kit::Kit;
+use crate::midi::NoteMap;
+use crate::motion::window::WindowPlan;
+use crossbeam_channel::{Receiver, Sender};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
+use std::time::{Duration, Instant};
+
+/// Behind by more than this, the body drops the periods it missed, s.
+pub const CATCH_UP_S: f64 = 0.030;
+
+/// A period this late is counted as late, s (the sleep's own jitter is not lateness).
+pub const LATE_S: f64 = 0.002;
+
+/// The hi-hat's openness is sent when it moved this much (as the offline render does).
+const HIHAT_STEP: f32 = 0.005;
+
+/// One window's plan as the body follows it.
+pub struct BodyPlan {
+    pub targets: TipTargets,
+    pub pedals: Option<PedalTargets>,
+}
+
+/// A plan the body gave up, dropped off the physics thread.
+pub type Spent = (TipTargets, Option<PedalTargets>);
+
+/// Makes body plans from window plans (on the planning thread).
+pub struct BodyPlanner {
+    shape: TargetShape,
+    kit: Kit,
+    map: NoteMap,
+    bodies: Option<PedalBodies>,
+}
+
+impl BodyPlanner {
+    pub fn new(shape: TargetShape, kit: &Kit, map: &NoteMap) -> BodyPlanner {
+        BodyPlanner { shape, kit: kit.clone(), map: map.clone(), bodies: PedalBodies::new(kit) }
+    }
+
+    pub fn plan(&self, w: &WindowPlan) -> BodyPlan {
+        let targets = self.shape.targets(&w.hands);
+        let pedals = self
+            .bodies
+            .as_ref()
+            .map(|b| PedalTargets::new(&w.perf, &self.map, &self.kit, b, &w.motion).shifted(w.start_s));
+        BodyPlan { targets, pedals }
+    }
+}
+
+/// What the body did, as plain values (session seconds).
+#[derive(Debug, Clone, Copy)]
+pub enum BodyOut {
+    Strike(Strike),
+    HiHat { time_s: f64, openness: f32 },
+}
+
+/// What the physics thread counts.
+#[derive(Debug, Default)]
+pub struct PacedStats {
+    pub periods: AtomicU64,
+    /// Periods that started more than [`LATE_S`] after they were due.
+    pub late_periods: AtomicU64,
+    /// The latest a period started, microseconds.
+    pub worst_late_us: AtomicU64,
+    /// Periods dropped to catch up.
+    pub dropped_periods: AtomicU64,
+    pub replans: AtomicU64,
+    pub strikes: AtomicU64,
+    /// Contacts and hi-hat messages the outgoing queue had no room for.
+    pub out_full: AtomicU64,
+    /// Plans given up that the planner had no room to take back (dropped here).
+    pub spent_here: AtomicU64,
+    /// Time spent stepping, microseconds (for the share of a core the body takes).
+    pub busy_us: AtomicU64,
+}
+
+impl PacedStats {
+    pub fn report(&self) -> String {
+        let periods = self.periods.load(Relaxed);
+        let busy = self.busy_us.load(Relaxed) as f64 * 1e-6;
+        let wall = periods as f64 / TASK_HZ;
+        format!(
+            "body: {periods} periods at 250 Hz ({:.0} % of a core), {} late (worst {:.1} ms), {} dropped to catch up, \
+             {} plans, {} contacts",
+            if wall > 0.0 { 100.0 * busy / wall } else { 0.0 },
+            self.late_periods.load(Relaxed),
+            self.worst_late_us.load(Relaxed) as f64 / 1e3,
+            self.dropped_periods.load(Relaxed),
+            self.replans.load(Relaxed),
+            self.strikes.load(Relaxed),
+        )
+    }
+}
+
+/// When each period is due on the wall clock.
+#[derive(Debug, Clone, Copy)]
+pub struct PacedClock {
+    /// Session time 0.
+    pub epoch: Instant,
+    /// The sound's lookahead minus how far ahead of its sound the body runs, s.
+    pub delay_s: f64,
+}
+
+impl PacedClock {
+    /// The wall-clock instant at which the body may play session time `t`.
+    pub fn due(&self, t: f64) -> Instant {
+        let s = t + self.delay_s;
+        if s >= 0.0 {
+            self.epoch + Duration::from_secs_f64(s)
+        } else {
+            self.epoch.checked_sub(Duration::from_secs_f64(-s)).unwrap_or(self.epoch)
+        }
+    }
+
+    /// The session time the body may have reached at `now`.
+    pub fn body_time(&self, now: Instant) -> f64 {
+        now.saturating_duration_since(self.epoch).as_secs_f64() - self.delay_s
+    }
+}
+
+/// The physics thread: periods as they fall due, until `stop`.
+pub fn run(
+    mut c: Conductor,
+    clock: PacedClock,
+    plans: &Receiver<BodyPlan>,
+    spent: &Sender<Spent>,
+    out: &Sender<BodyOut>,
+    stats: &PacedStats,
+    stop: &AtomicBool,
+) {
+    let period = 1.0 / TASK_HZ;
+    let mut last_openness = f32::NAN;
+    let mut frame = (c.time_s() * 60.0).ceil();
+    while !stop.load(Relaxed) {
+        while let Ok(plan) = plans.try_recv() {
+            let old = c.replan(plan.targets, plan.pedals);
+            stats.replans.fetch_add(1, Relaxed);
+            if let Err(e) = spent.try_send(old) {
+                stats.spent_here.fetch_add(1, Relaxed);
+                drop(e);
+            }
+        }
+        let next = c.time_s() + period;
+        let due = clock.due(next);
+        let now = Instant::now();
+        if now < due {
+            std::thread::sleep((due - now).min(Duration::from_millis(2)));
+            continue;
+        }
+        let late = (now - due).as_secs_f64();
+        if late > LATE_S {
+            stats.late_periods.fetch_add(1, Relaxed);
+            stats.worst_late_us.fetch_max((late * 1e6) as u64, Relaxed);
+        }
+        if late > CATCH_UP_S {
+            let behind = ((clock.body_time(now) - c.time_s()) / period).floor().max(0.0);
+            c.skip_periods(behind as usize);
+            stats.dropped_periods.fetch_add(behind as u64, Relaxed);
+            frame = (c.time_s() * 60.0).ceil();
+            continue;
+        }
+        let started = Instant::now();
+        c.period(&mut |s| {
+            stats.strikes.fetch_add(1, Relaxed);
+            if out.try_send(BodyOut::Strike(s)).is_err() {
+                stats.out_full.fetch_add(1, Relaxed);
+            }
+        });
+        // The hi-hat's openness at 60 fps, when it moved.
+        while frame / 60.0 <= c.time_s() {
+            if let Some(o) = c.pedals().map(|p| p.hihat_openness()) {
+                if last_openness.is_nan() || (o - last_openness).abs() >= HIHAT_STEP {
+                    last_openness = o;
+                    if out.try_send(BodyOut::HiHat { time_s: frame / 60.0, openness: o }).is_err() {
+                        stats.out_full.fetch_add(1, Relaxed);
+                    }
+                }
+            }
+            frame += 1.0;
+        }
+        stats.periods.fetch_add(1, Relaxed);
+        stats.busy_us.fetch_add(started.elapsed().as_micros() as u64, Relaxed);
+    }
+}

@@ -1,0 +1,154 @@
+//! `drumsim live --sound physical` end to end with a real JACK server (dummy driver): a test
+//! client plays a Groove MIDI validation take into drumsim's MIDI port on JACK's clock; the
+//! simulated body strikes the kit and its contacts go, as time-tagged OSC bundles over real
+//! UDP (`--sound-to`), to this test. Each bundle's tag is when the sound server plays it
+//! (`tests/sound_server.rs` shows the server's audio follows the tags within 0.25 ms), so the
+//! tags are the sound's times. Contacts are matched to the notes as the offline render
+//! matches them (`perform::matching`).
+#![cfg(feature = "jack")]
+
+#[allow(dead_code)]
+mod jack_rig;
+
+use drumsim::interaction::{decode_timed, ContactMessage, Message};
+use drumsim::midi::{read_file, DrumEventKind, NoteMap, ReadOptions};
+use drumsim::perform::matching::{match_contacts, onsets};
+use jack_rig::*;
+use std::net::UdpSocket;
+use std::path::Path;
+use std::sync::atomic::Ordering;
+use std::thread;
+use std::time::{Duration, Instant};
+
+/// The take (validation split: never trained on) and how much of it is played, s.
+const TAKE: &str = "drummer1/session2/1_latin-chacarera_157_beat_3-4.mid";
+const PLAYED_S: f64 = 60.0;
+const LOOKAHEAD_MS: f64 = 250.0;
+
+/// OSC time tag -> Unix seconds.
+fn unix(t: rosc::OscTime) -> f64 {
+    t.seconds as f64 - 2_208_988_800.0 + t.fractional as f64 / 4_294_967_296.0
+}
+
+#[test]
+fn a_groove_midi_take_played_live_is_struck_by_the_body_each_note_lookahead_after_it_was_played() {
+    let _turn = one_at_a_time();
+    let jack = JackServer::start();
+    let song = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/gmd").join(TAKE);
+    let perf = read_file(&song, &ReadOptions::default()).unwrap();
+    let map = NoteMap::load("roland-td").unwrap();
+    let mut schedule = Vec::new();
+    for e in perf.events.iter().filter(|e| e.time_s < PLAYED_S) {
+        let bytes = match e.kind {
+            DrumEventKind::NoteOn { note, velocity } => [0x99, note, velocity],
+            DrumEventKind::NoteOff { note } => [0x89, note, 0],
+            DrumEventKind::HiHatPedal { value } => [0xB9, 4, value],
+            DrumEventKind::Aftertouch { note, pressure } => [0xA9, note, pressure],
+        };
+        schedule.push((FIRST_NOTE + (e.time_s * RATE as f64).round() as u64, bytes));
+    }
+    let total = schedule.last().unwrap().0 + RATE;
+    let (client, armed, progress) = player("drumsim-test", schedule, total as usize);
+
+    let inbound = UdpSocket::bind("127.0.0.1:0").unwrap();
+    inbound.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
+    let to = format!("udp://{}", inbound.local_addr().unwrap());
+    let seconds = (total / RATE + 4).to_string();
+    let lookahead = LOOKAHEAD_MS.to_string();
+    let args = [
+        "--midi",
+        "drumsim-test:midi_out",
+        "--map",
+        "roland-td",
+        "--sound",
+        "physical",
+        "--sound-to",
+        &to,
+        "--lookahead-ms",
+        &lookahead,
+        "--duration-s",
+        &seconds,
+    ];
+    let mut live = Drumsim::live(&jack, &args);
+    live.wait_for("drumsim live: MIDI", Duration::from_secs(60));
+    let receiving = thread::spawn(move || {
+        let mut got = Vec::new();
+        let mut buf = vec![0u8; 65_536];
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(200) {
+            match inbound.recv(&mut buf) {
+                Ok(n) => got.extend(decode_timed(&buf[..n]).unwrap()),
+                Err(_) if got.is_empty() || start.elapsed() < Duration::from_secs(5) => {}
+                Err(_) => {
+                    // Quiet for a while after the last message: done.
+                    if start.elapsed() > Duration::from_secs_f64(PLAYED_S + 8.0) {
+                        break;
+                    }
+                }
+            }
+        }
+        got
+    });
+    armed.store(true, Ordering::Release);
+    let start = Instant::now();
+    while progress.load(Ordering::Acquire) < total {
+        assert!(start.elapsed() < Duration::from_secs(120), "JACK is not running the test client");
+        thread::sleep(Duration::from_millis(100));
+    }
+    let (_, _, player) = client.deactivate().unwrap();
+    let status = live.wait_exit(Duration::from_secs(30));
+    assert!(status.success(), "drumsim live failed ({status}):\n{}", live.stderr());
+    let got = receiving.join().unwrap();
+
+    // The wall time of the take's time 0: JACK frame FIRST_NOTE, from the callbacks' clock.
+    let (f0, w0) = player.clock.iter().rev().find(|(f, _)| *f <= FIRST_NOTE).copied().unwrap();
+    let zero = w0 + (FIRST_NOTE - f0) as f64 / RATE as f64;
+    // Each contact at the take's time its sound stands for: tag - lookahead.
+    let mut contacts: Vec<ContactMessage> = got
+        .iter()
+        .filter_map(|(tag, m)| match (tag, m) {
+            (Some(tag), Message::Contact(c)) => {
+                Some(ContactMessage { time_s: (unix(*tag) - LOOKAHEAD_MS / 1e3 - zero) as f32, ..c.clone() })
+            }
+            _ => None,
+        })
+        .filter(|c| c.time_s > -0.1 && (c.time_s as f64) < PLAYED_S + 0.05)
+        .collect();
+    contacts.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    let notes: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < PLAYED_S).collect();
+    let (of_contact, played) = match_contacts(&notes, &contacts);
+    let hit = played.iter().filter(|p| **p).count();
+    let matched: Vec<f64> =
+        of_contact.iter().zip(&contacts).filter_map(|(o, c)| o.map(|i| c.time_s as f64 - notes[i].time_s)).collect();
+    let spurious = of_contact.iter().filter(|o| o.is_none()).count();
+    let n = matched.len().max(1) as f64;
+    let mean = matched.iter().sum::<f64>() / n;
+    let sd = (matched.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / n).sqrt();
+    let recall = hit as f64 / notes.len() as f64;
+    let precision = 1.0 - spurious as f64 / contacts.len().max(1) as f64;
+    let stderr = live.stderr();
+    let body = stderr.lines().find(|l| l.contains("body:")).unwrap_or_default().to_string();
+    println!(
+        "{TAKE}, first {PLAYED_S} s, lookahead {LOOKAHEAD_MS} ms: {} notes, {} contacts; recall {:.2} %, precision \
+         {:.2} %; contact - note: mean {:+.2} ms, sd {:.2} ms\n{body}",
+        notes.len(),
+        contacts.len(),
+        100.0 * recall,
+        100.0 * precision,
+        mean * 1e3,
+        sd * 1e3
+    );
+    if let Ok(path) = std::env::var("DRUMSIM_LIVE_PHYSICAL_JSON") {
+        let rows: Vec<String> = contacts
+            .iter()
+            .zip(&of_contact)
+            .map(|(c, o)| format!("[{:.4},{:?},{}]", c.time_s, c.piece, o.map_or(-1, |i| i as i64)))
+            .collect();
+        let nrows: Vec<String> = notes.iter().map(|o| format!("[{:.4},{:?}]", o.time_s, o.piece)).collect();
+        std::fs::write(path, format!("{{\"contacts\":[{}],\"notes\":[{}]}}", rows.join(","), nrows.join(","))).unwrap();
+    }
+    assert!(!contacts.is_empty(), "no contact arrived:\n{stderr}");
+    assert!(body.contains(" 0 late"), "the body fell behind: {body}");
+    assert!(recall >= 0.90 && precision >= 0.85, "recall {recall:.3}, precision {precision:.3}");
+    assert!(mean.abs() <= 0.005 && sd <= 0.006, "contact - note: mean {mean:+.4} s, sd {sd:.4} s");
+}
