@@ -20,6 +20,7 @@ pub mod feet;
 pub mod matching;
 pub mod offline;
 pub mod paced;
+pub mod replay;
 pub mod rehearsal;
 pub mod targets;
 
