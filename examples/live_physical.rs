@@ -46,12 +46,14 @@ fn main() -> anyhow::Result<()> {
     let mut lookahead_ms = f64::from(drumsim::live_body::DEFAULT_LOOKAHEAD_MS);
     let mut takes: Vec<String> = Vec::new();
     let mut verbose = false;
+    let mut plan_every_ms = 50.0;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
             "--seconds" => seconds = it.next().unwrap().parse()?,
             "--lookahead-ms" => lookahead_ms = it.next().unwrap().parse()?,
             "--verbose" => verbose = true,
+            "--plan-every-ms" => plan_every_ms = it.next().unwrap().parse()?,
             t => takes.push(t.to_string()),
         }
     }
@@ -60,7 +62,11 @@ fn main() -> anyhow::Result<()> {
     }
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/gmd");
     let (kit, map) = (Kit::builtin_default(), NoteMap::builtin("roland-td").expect("a built-in map"));
-    let settings = ReplaySettings { lookahead_s: lookahead_ms / 1e3, ..ReplaySettings::default() };
+    let settings = ReplaySettings {
+        lookahead_s: lookahead_ms / 1e3,
+        plan_every_s: plan_every_ms / 1e3,
+        ..ReplaySettings::default()
+    };
     let mut totals = [[0.0f64; 4]; 3];
     for take in &takes {
         let perf = read_file(&root.join(take), &ReadOptions { channel: 10 })?;
@@ -93,7 +99,8 @@ fn main() -> anyhow::Result<()> {
             for (j, v) in [r, p, m, sd].into_iter().enumerate() {
                 totals[k][j] += v / takes.len() as f64;
             }
-            if verbose && name == "live" {
+            if verbose && name != "offline, rehearsed" {
+                println!("   {name}:");
                 for i in missed {
                     println!("    missed {:7.3} s {}", notes[i].time_s, notes[i].piece);
                 }

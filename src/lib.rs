@@ -20,6 +20,7 @@ pub mod outputs;
 pub mod perform;
 pub mod render;
 pub mod rng;
+pub mod rt_alloc;
 pub mod sound;
 pub mod sound_server;
 pub mod view;

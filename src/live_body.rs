@@ -10,7 +10,7 @@
 //! body      the conductor's 250 Hz periods on the wall clock (perform::paced::run), each
 //!           `lookahead - LEAD_MS` after its session time; no allocation, lock or wait
 //!   --BodyOut (bounded, try_send)--> out
-//! out       contacts and the hi-hat's openness as contact messages, to live's sound
+//! out       (polled every ms) contacts and the hi-hat's openness as contact messages, to live's sound
 //!           (the feed of this process, or a sound server); chokes from the interaction thread
 //! ```
 //! The body plays each note at the note's session time, and its sound is placed
@@ -45,6 +45,9 @@ pub const PLAN_EVERY: Duration = Duration::from_millis(50);
 /// stroke than the plan would give it (counted), s.
 pub const FULL_STROKE_S: f64 = 0.120;
 
+/// How often the out thread looks for the body's contacts (well inside [`LEAD_MS`]).
+const OUT_POLL: Duration = Duration::from_millis(1);
+
 /// What the planner counts.
 #[derive(Debug, Default)]
 pub struct PlanStats {
@@ -66,9 +69,14 @@ pub struct PlanStats {
 /// What the drummer needs, loaded before the sound starts.
 pub struct Prepared {
     window: WindowMotion,
-    conductor: Conductor,
     planner: BodyPlanner,
     surfaces: Vec<String>,
+    /// What the body is built from, on its own thread (so that its memory is that thread's
+    /// pool's, `rt_alloc`).
+    kit: Kit,
+    settings: DrummerSettings,
+    first: paced::BodyPlan,
+    t0: f64,
 }
 
 /// Load the hand model and retrieval library and build the body, waiting.
@@ -82,11 +90,14 @@ pub fn prepare(kit: &Kit, map: &NoteMap, lookahead_s: f64) -> anyhow::Result<Pre
     let shape = TargetShape::of(&Drummer::new(kit, settings.clone())?);
     let planner = BodyPlanner::new(shape, kit, map);
     let mut window = WindowMotion::new(kit.clone(), map.clone(), model, library, lookahead_s);
-    let first = planner.plan(&window.plan(0.0)?);
+    let waiting = window.plan(0.0)?;
     let t0 = -lookahead_s + LEAD_MS / 1e3;
-    let conductor = Conductor::live(kit, settings, first.targets, first.pedals, t0)?;
+    // Built here once to fail early (and name the surfaces), then again on the body's thread.
+    let first = planner.plan(&waiting);
+    let conductor = Conductor::live(kit, settings.clone(), first.targets, first.pedals, t0)?;
     let surfaces = conductor.drummer().surfaces().iter().map(|s| s.id.clone()).collect();
-    Ok(Prepared { window, conductor, planner, surfaces })
+    let first = planner.plan(&waiting);
+    Ok(Prepared { window, planner, surfaces, kit: kit.clone(), settings, first, t0 })
 }
 
 /// The running drummer.
@@ -109,7 +120,7 @@ pub fn start(
     lookahead_s: f64,
     mut send: impl FnMut(&Message) -> bool + Send + 'static,
 ) -> anyhow::Result<LiveBody> {
-    let Prepared { mut window, conductor, planner, surfaces } = prepared;
+    let Prepared { mut window, planner, surfaces, kit, settings, first, t0 } = prepared;
     let stop = Arc::new(AtomicBool::new(false));
     let (body, plans) = (Arc::new(PacedStats::default()), Arc::new(PlanStats::default()));
     let first_error = Arc::new(Mutex::new(None));
@@ -173,7 +184,13 @@ pub fn start(
         let (stop, stats) = (stop.clone(), body.clone());
         thread::Builder::new()
             .name("drumsim-body".into())
-            .spawn(move || paced::run(conductor, clock, &plan_rx, &spent_tx, &out_tx, &stats, &stop))?
+            .spawn(move || {
+                crate::rt_alloc::RtPool::enter(paced::POOL_BYTES);
+                match Conductor::live(&kit, settings, first.targets, first.pedals, t0) {
+                    Ok(c) => paced::run(c, clock, &plan_rx, &spent_tx, &out_tx, &stats, &stop),
+                    Err(e) => eprintln!("drumsim live: the body could not be built: {e}"),
+                }
+            })?
     };
     let out = {
         let (stop, stats) = (stop.clone(), plans.clone());
@@ -184,20 +201,25 @@ pub fn start(
                     stats.unsent.fetch_add(1, Relaxed);
                 }
             };
+            // Polled, never waited on: a receiver blocked on the body's channel would make
+            // the body's `try_send` wake it (a lock and a system call on the physics thread).
             while !stop.load(Relaxed) {
-                crossbeam_channel::select! {
-                    recv(out_rx) -> o => match o {
-                        Ok(BodyOut::Strike(s)) => forward(&Message::Contact(s.message_named(&surfaces[s.surface]))),
-                        Ok(BodyOut::HiHat { time_s, openness }) => {
+                let mut idle = true;
+                while let Ok(o) = out_rx.try_recv() {
+                    idle = false;
+                    match o {
+                        BodyOut::Strike(s) => forward(&Message::Contact(s.message_named(&surfaces[s.surface]))),
+                        BodyOut::HiHat { time_s, openness } => {
                             forward(&Message::HiHat { time_s: time_s as f32, openness })
                         }
-                        Err(_) => return,
-                    },
-                    recv(messages) -> m => match m {
-                        Ok(m) => forward(&m),
-                        Err(_) => thread::sleep(Duration::from_millis(5)),
-                    },
-                    default(Duration::from_millis(100)) => {}
+                    }
+                }
+                while let Ok(m) = messages.try_recv() {
+                    idle = false;
+                    forward(&m);
+                }
+                if idle {
+                    thread::sleep(OUT_POLL);
                 }
             }
         })?

@@ -4,6 +4,11 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// Real-time threads (the live body's physics) allocate from their own pools; everything else
+/// from the system (see `rt_alloc`).
+#[global_allocator]
+static ALLOCATOR: drumsim::rt_alloc::RtPool = drumsim::rt_alloc::RtPool;
+
 /// `drumsim --version`: the version and the optional features this binary was built with.
 #[cfg(feature = "jack")]
 const VERSION: &str =

@@ -9,9 +9,11 @@
 //! and pedal targets ([`BodyPlanner`]); the physics thread swaps each newer plan in between
 //! two periods and hands the one it gave up back, to be dropped there.
 //!
-//! In steady state the physics thread allocates nothing, takes no lock and never waits on
-//! another thread: plans and plans given up travel through bounded lock-free channels
-//! (`try_recv`, `try_send`), and what the body did leaves as plain [`BodyOut`] values. It
+//! In steady state the physics thread takes no lock, never waits on another thread and never
+//! calls the system allocator: plans and plans given up travel through bounded lock-free
+//! channels (`try_recv`, `try_send`), what the body did leaves as plain [`BodyOut`] values,
+//! and the allocations rapier makes on every step come from the thread's own free lists
+//! (`rt_alloc`, the binary's allocator; counted, and reported if any reach the system). It
 //! counts (never logs) every period that started late and the worst lateness; when it falls
 //! more than [`CATCH_UP_S`] behind (the machine cannot keep up), it drops the periods it
 //! missed (the body's clock jumps, its state stays), so that it never drifts behind the
@@ -35,6 +37,10 @@ pub const CATCH_UP_S: f64 = 0.030;
 
 /// A period this late is counted as late, s (the sleep's own jitter is not lateness).
 pub const LATE_S: f64 = 0.002;
+
+/// A period this late is behind: its contacts may reach the sound after they are due (the
+/// live body runs `LEAD_MS` = 25 ms ahead of its sound; 5 ms are kept for the way there), s.
+pub const BEHIND_S: f64 = 0.020;
 
 /// The hi-hat's openness is sent when it moved this much (as the offline render does).
 const HIHAT_STEP: f32 = 0.005;
@@ -86,6 +92,8 @@ pub struct PacedStats {
     pub late_periods: AtomicU64,
     /// The latest a period started, microseconds.
     pub worst_late_us: AtomicU64,
+    /// Periods that started more than [`BEHIND_S`] late.
+    pub behind_periods: AtomicU64,
     /// Periods dropped to catch up.
     pub dropped_periods: AtomicU64,
     pub replans: AtomicU64,
@@ -96,6 +104,9 @@ pub struct PacedStats {
     pub spent_here: AtomicU64,
     /// Time spent stepping, microseconds (for the share of a core the body takes).
     pub busy_us: AtomicU64,
+    /// Calls of the physics thread that reached the system allocator after its first
+    /// second (`rt_alloc`; only counted where the binary's allocator is `RtPool`).
+    pub system_allocs: AtomicU64,
 }
 
 impl PacedStats {
@@ -104,14 +115,17 @@ impl PacedStats {
         let busy = self.busy_us.load(Relaxed) as f64 * 1e-6;
         let wall = periods as f64 / TASK_HZ;
         format!(
-            "body: {periods} periods at 250 Hz ({:.0} % of a core), {} late (worst {:.1} ms), {} dropped to catch up, \
-             {} plans, {} contacts",
+            "body: {periods} periods at 250 Hz ({:.0} % of a core), {} started over 2 ms late (worst {:.1} ms), {} \
+             behind (contacts at risk of sounding late), {} dropped to catch up, {} plans, {} contacts, {} system \
+             allocator calls in steady state",
             if wall > 0.0 { 100.0 * busy / wall } else { 0.0 },
             self.late_periods.load(Relaxed),
             self.worst_late_us.load(Relaxed) as f64 / 1e3,
+            self.behind_periods.load(Relaxed),
             self.dropped_periods.load(Relaxed),
             self.replans.load(Relaxed),
             self.strikes.load(Relaxed),
+            self.system_allocs.load(Relaxed),
         )
     }
 }
@@ -153,17 +167,14 @@ pub fn run(
     stop: &AtomicBool,
 ) {
     let period = 1.0 / TASK_HZ;
-    let mut last_openness = f32::NAN;
-    let mut frame = (c.time_s() * 60.0).ceil();
+    let mut hihat = HiHatOut::new(c.time_s());
+    crate::rt_alloc::RtPool::enter(POOL_BYTES);
+    let mut baseline: Option<u64> = None;
     while !stop.load(Relaxed) {
-        while let Ok(plan) = plans.try_recv() {
-            let old = c.replan(plan.targets, plan.pedals);
-            stats.replans.fetch_add(1, Relaxed);
-            if let Err(e) = spent.try_send(old) {
-                stats.spent_here.fetch_add(1, Relaxed);
-                drop(e);
-            }
+        if baseline.is_none() && stats.periods.load(Relaxed) >= TASK_HZ as u64 {
+            baseline = Some(crate::rt_alloc::RtPool::system_calls());
         }
+        take_plans(&mut c, plans, spent, stats);
         let next = c.time_s() + period;
         let due = clock.due(next);
         let now = Instant::now();
@@ -176,33 +187,72 @@ pub fn run(
             stats.late_periods.fetch_add(1, Relaxed);
             stats.worst_late_us.fetch_max((late * 1e6) as u64, Relaxed);
         }
+        if late > BEHIND_S {
+            stats.behind_periods.fetch_add(1, Relaxed);
+        }
         if late > CATCH_UP_S {
             let behind = ((clock.body_time(now) - c.time_s()) / period).floor().max(0.0);
             c.skip_periods(behind as usize);
             stats.dropped_periods.fetch_add(behind as u64, Relaxed);
-            frame = (c.time_s() * 60.0).ceil();
+            hihat = HiHatOut::new(c.time_s());
             continue;
         }
         let started = Instant::now();
-        c.period(&mut |s| {
-            stats.strikes.fetch_add(1, Relaxed);
-            if out.try_send(BodyOut::Strike(s)).is_err() {
-                stats.out_full.fetch_add(1, Relaxed);
-            }
-        });
-        // The hi-hat's openness at 60 fps, when it moved.
-        while frame / 60.0 <= c.time_s() {
-            if let Some(o) = c.pedals().map(|p| p.hihat_openness()) {
-                if last_openness.is_nan() || (o - last_openness).abs() >= HIHAT_STEP {
-                    last_openness = o;
-                    if out.try_send(BodyOut::HiHat { time_s: frame / 60.0, openness: o }).is_err() {
-                        stats.out_full.fetch_add(1, Relaxed);
-                    }
-                }
-            }
-            frame += 1.0;
-        }
-        stats.periods.fetch_add(1, Relaxed);
+        play_period(&mut c, &mut hihat, out, stats);
         stats.busy_us.fetch_add(started.elapsed().as_micros() as u64, Relaxed);
     }
+    if let Some(b) = baseline {
+        stats.system_allocs.store(crate::rt_alloc::RtPool::system_calls() - b, Relaxed);
+    }
+}
+
+/// The physics thread's own memory (`rt_alloc`): rapier's per-step buffers need well under 1 MiB.
+pub const POOL_BYTES: usize = 16 << 20;
+
+/// Swap in the newest plan waiting, handing the ones given up back.
+pub fn take_plans(c: &mut Conductor, plans: &Receiver<BodyPlan>, spent: &Sender<Spent>, stats: &PacedStats) {
+    while let Ok(plan) = plans.try_recv() {
+        let old = c.replan(plan.targets, plan.pedals);
+        stats.replans.fetch_add(1, Relaxed);
+        if let Err(e) = spent.try_send(old) {
+            stats.spent_here.fetch_add(1, Relaxed);
+            drop(e);
+        }
+    }
+}
+
+/// Where the hi-hat's openness stands in what was sent.
+pub struct HiHatOut {
+    last: f32,
+    /// The next 60 fps frame to look at.
+    frame: f64,
+}
+
+impl HiHatOut {
+    pub fn new(t: f64) -> HiHatOut {
+        HiHatOut { last: f32::NAN, frame: (t * 60.0).ceil() }
+    }
+}
+
+/// One task period: the body's contacts, and the hi-hat's openness at 60 fps where it moved,
+/// to `out`.
+pub fn play_period(c: &mut Conductor, hihat: &mut HiHatOut, out: &Sender<BodyOut>, stats: &PacedStats) {
+    c.period(&mut |s| {
+        stats.strikes.fetch_add(1, Relaxed);
+        if out.try_send(BodyOut::Strike(s)).is_err() {
+            stats.out_full.fetch_add(1, Relaxed);
+        }
+    });
+    while hihat.frame / 60.0 <= c.time_s() {
+        if let Some(o) = c.pedals().map(|p| p.hihat_openness()) {
+            if hihat.last.is_nan() || (o - hihat.last).abs() >= HIHAT_STEP {
+                hihat.last = o;
+                if out.try_send(BodyOut::HiHat { time_s: hihat.frame / 60.0, openness: o }).is_err() {
+                    stats.out_full.fetch_add(1, Relaxed);
+                }
+            }
+        }
+        hihat.frame += 1.0;
+    }
+    stats.periods.fetch_add(1, Relaxed);
 }
