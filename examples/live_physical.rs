@@ -7,6 +7,7 @@
 //! `cargo run --release --example live_physical [TAKE.mid ...] [--seconds S] [--lookahead-ms N]`
 //! (default: six validation takes, the first 30 s of each).
 
+use drumsim::interaction::ContactMessage;
 use drumsim::kit::Kit;
 use drumsim::midi::{read_file, NoteMap, ReadOptions};
 use drumsim::motion::hands::HandModel;
@@ -14,7 +15,6 @@ use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
 use drumsim::perform::matching::{match_contacts, onsets, Onset};
 use drumsim::perform::replay::{replay, ReplaySettings};
 use drumsim::perform::{play_with, RehearsalSettings};
-use drumsim::interaction::ContactMessage;
 use std::path::Path;
 
 const TAKES: [&str; 6] = [
@@ -85,10 +85,13 @@ fn main() -> anyhow::Result<()> {
             .map(|s| s.message_named(&live.surfaces[s.surface]))
             .collect();
         println!("{take} ({} notes, {end:.0} s):", notes.len());
-        for (k, (name, msgs)) in
-            [("offline, rehearsed", &rehearsed.messages), ("offline, straight", &straight.messages), ("live", &live_msgs)]
-                .into_iter()
-                .enumerate()
+        for (k, (name, msgs)) in [
+            ("offline, rehearsed", &rehearsed.messages),
+            ("offline, straight", &straight.messages),
+            ("live", &live_msgs),
+        ]
+        .into_iter()
+        .enumerate()
         {
             let (r, p, m, sd, missed, spurious) = score(&notes, msgs);
             println!(
@@ -114,7 +117,11 @@ fn main() -> anyhow::Result<()> {
     println!("mean over {} takes:", takes.len());
     for (k, name) in ["offline, rehearsed", "offline, straight", "live"].iter().enumerate() {
         let [r, p, m, sd] = totals[k];
-        println!("  {name:20} recall {:6.2} %  precision {:6.2} %  timing {m:+5.2} / {sd:4.2} ms", 100.0 * r, 100.0 * p);
+        println!(
+            "  {name:20} recall {:6.2} %  precision {:6.2} %  timing {m:+5.2} / {sd:4.2} ms",
+            100.0 * r,
+            100.0 * p
+        );
     }
     Ok(())
 }

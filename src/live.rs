@@ -2,7 +2,7 @@
 //! Thread wiring only; each stage lives with its data:
 //!
 //! ```text
-//! midir callback   parse, stamp arrival           (midi::live::EventSink)
+//! MIDI callback    parse, stamp (its frame on JACK) (midi::live::EventSink)
 //!   -> crossbeam bounded channel of LiveEvent
 //! interaction      Director, OSC encode           (interaction::direct, message)
 //!   -> transport: in-process channel of packets   (interaction::transport; UDP alike)
@@ -523,6 +523,7 @@ mod tests {
             duration_s: None,
             avatar: None,
             sound_to: None,
+            physical: false,
         }
     }
 

@@ -182,15 +182,13 @@ pub fn start(
     };
     let stepping = {
         let (stop, stats) = (stop.clone(), body.clone());
-        thread::Builder::new()
-            .name("drumsim-body".into())
-            .spawn(move || {
-                crate::rt_alloc::RtPool::enter(paced::POOL_BYTES);
-                match Conductor::live(&kit, settings, first.targets, first.pedals, t0) {
-                    Ok(c) => paced::run(c, clock, &plan_rx, &spent_tx, &out_tx, &stats, &stop),
-                    Err(e) => eprintln!("drumsim live: the body could not be built: {e}"),
-                }
-            })?
+        thread::Builder::new().name("drumsim-body".into()).spawn(move || {
+            crate::rt_alloc::RtPool::enter(paced::POOL_BYTES);
+            match Conductor::live(&kit, settings, first.targets, first.pedals, t0) {
+                Ok(c) => paced::run(c, clock, &plan_rx, &spent_tx, &out_tx, &stats, &stop),
+                Err(e) => eprintln!("drumsim live: the body could not be built: {e}"),
+            }
+        })?
     };
     let out = {
         let (stop, stats) = (stop.clone(), plans.clone());

@@ -190,7 +190,7 @@ fn a_groove_midi_funk_take_is_played_by_the_body_and_its_pedals() {
 }
 
 #[test]
-fn a_kit_without_pedals_plays_the_hands_and_says_so_and_live_physical_is_refused() {
+fn a_kit_without_pedals_plays_the_hands_and_says_so_and_live_physical_with_an_avatar_is_refused() {
     let dir = fresh_dir("nopedals");
     let kit = drumsim::kit::DEFAULT_KIT_TOML;
     let no_pedals = dir.join("no-pedals.toml");
@@ -209,10 +209,12 @@ fn a_kit_without_pedals_plays_the_hands_and_says_so_and_live_physical_is_refused
         serde_json::from_slice(&std::fs::read(out.join("demo.contacts.json")).unwrap()).unwrap();
     let contacts = json["contacts"].as_array().unwrap();
     assert!(!contacts.is_empty() && contacts.iter().all(|c| c["limb"].as_i64().unwrap() <= 1));
-    // The live physical drummer is not built yet: refused before any device is opened.
-    let r = Command::new(env!("CARGO_BIN_EXE_drumsim")).args(["live", "--sound", "physical"]).output().unwrap();
+    // The live physical drummer shown on the page or over VMC is not built yet: refused before
+    // any device is opened.
+    let r =
+        Command::new(env!("CARGO_BIN_EXE_drumsim")).args(["live", "--sound", "physical", "--view"]).output().unwrap();
     assert_eq!(r.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&r.stderr).contains("live --sound physical is not built yet"));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("with --view or --vmc is not built yet"));
 }
 
 /// The rehearsal's premise: a snapshot of the body plays on exactly as the original did, so

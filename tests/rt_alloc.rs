@@ -32,7 +32,8 @@ fn the_live_body_never_calls_the_system_allocator_in_steady_state() {
     let shape = TargetShape::of(&drumsim::body::sim::Drummer::new(&kit, settings.clone()).unwrap());
     let planner = BodyPlanner::new(shape, &kit, &map);
     let (lookahead, delay) = (0.25, 0.225);
-    let mut window = WindowMotion::new(kit.clone(), map.clone(), HandModel::shipped(), shipped_library().unwrap(), lookahead);
+    let mut window =
+        WindowMotion::new(kit.clone(), map.clone(), HandModel::shipped(), shipped_library().unwrap(), lookahead);
     let first = planner.plan(&window.plan(0.0).unwrap());
     let mut c = Conductor::live(&kit, settings, first.targets, first.pedals, -delay).unwrap();
     let (plan_tx, plan_rx) = crossbeam_channel::bounded(1);
@@ -63,7 +64,8 @@ fn the_live_body_never_calls_the_system_allocator_in_steady_state() {
             watched += 1;
         }
         while spent_rx.try_recv().is_ok() {}
-        contacts += out_rx.try_iter().filter(|o| steady && matches!(o, drumsim::perform::paced::BodyOut::Strike(_))).count();
+        contacts +=
+            out_rx.try_iter().filter(|o| steady && matches!(o, drumsim::perform::paced::BodyOut::Strike(_))).count();
     }
     assert!(watched > 2000 && contacts > 50, "{watched} periods watched, {contacts} contacts");
     assert!(stats.replans.load(Relaxed) > 200);

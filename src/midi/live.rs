@@ -1,14 +1,15 @@
-//! Live MIDI input (midir): raw messages -> drum events stamped with their arrival time.
+//! Live MIDI input: raw messages -> drum events stamped with when they were played.
 //!
-//! The midir callback runs on the backend's thread (JACK's process thread with the `jack`
-//! feature), so it only parses a few bytes, reads the clock and `try_send`s into a bounded
+//! Two backends: ALSA through midir (`alsa.rs`, stamped on arrival), and with the `jack`
+//! feature JACK's own MIDI ports (`jack_input.rs`, stamped at their frame in the cycle, so
+//! sub-period timing survives). Their callbacks run on the backend's thread (JACK's process
+//! thread), so they only parse a few bytes, read the clock and `try_send` into a bounded
 //! channel: no allocation, no blocking. Events that do not fit are counted, not queued.
 //! [`LiveInput`] also watches its port: when the source goes away it reports it, and it
 //! reconnects by name when a port of that name comes back.
 
 use super::{DrumEvent, DrumEventKind};
 use crossbeam_channel::{Sender, TrySendError};
-use midir::{Ignore, MidiInput, MidiInputConnection};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
@@ -83,9 +84,14 @@ pub struct EventSink {
 }
 
 impl EventSink {
-    /// Handle one raw message. Real-time safe: no allocation, no lock, no blocking.
+    /// Handle one raw message, stamped now. Real-time safe: no allocation, no lock, no
+    /// blocking.
     pub fn handle(&self, bytes: &[u8]) {
-        let arrival = Instant::now();
+        self.handle_at(bytes, Instant::now());
+    }
+
+    /// Handle one raw message played at `arrival`.
+    pub fn handle_at(&self, bytes: &[u8], arrival: Instant) {
         let Some(kind) = self.parser.parse(bytes) else { return };
         let tick = self.stats.received.load(Ordering::Relaxed);
         let time_s = arrival.saturating_duration_since(self.epoch).as_secs_f64();
@@ -137,29 +143,6 @@ pub enum LiveMidiError {
     Connect { port: String, message: String },
 }
 
-fn init_hint() -> &'static str {
-    if cfg!(feature = "jack") {
-        " (is a JACK server running? `jackd -d alsa` or `jackd -d dummy`)"
-    } else {
-        " (is the ALSA sequencer available? `modprobe snd-seq`)"
-    }
-}
-
-fn open(client_name: &str) -> Result<MidiInput, LiveMidiError> {
-    let mut input = MidiInput::new(client_name).map_err(|_| LiveMidiError::Init { hint: init_hint() })?;
-    input.ignore(Ignore::All);
-    Ok(input)
-}
-
-fn names(input: &MidiInput) -> Vec<String> {
-    input.ports().iter().filter_map(|p| input.port_name(p).ok()).collect()
-}
-
-/// Names of the MIDI input ports (other programs' outputs, with JACK) that can be used now.
-pub fn input_port_names() -> Result<Vec<String>, LiveMidiError> {
-    Ok(names(&open("drumsim-list")?))
-}
-
 /// A change of the connected port, found by [`LiveInput::check`].
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum PortChange {
@@ -167,92 +150,14 @@ pub enum PortChange {
     Reconnected(String),
 }
 
-/// One connected input port, watched so that it is reconnected by name when it comes back.
-pub struct LiveInput {
-    client_name: String,
-    /// Lists ports (a connected midir input cannot).
-    watcher: MidiInput,
-    /// The input to connect with, while not connected.
-    idle: Option<MidiInput>,
-    connection: Option<MidiInputConnection<()>>,
-    port: String,
-    /// Whether the port was there at the last check.
-    present: bool,
-    sink: Option<EventSink>,
-}
-
-impl LiveInput {
-    /// Open the backend; `client_name` names our client (and our JACK port's owner).
-    pub fn new(client_name: &str) -> Result<LiveInput, LiveMidiError> {
-        Ok(LiveInput {
-            client_name: client_name.to_string(),
-            watcher: open(&format!("{client_name}-watch"))?,
-            idle: Some(open(client_name)?),
-            connection: None,
-            port: String::new(),
-            present: false,
-            sink: None,
-        })
-    }
-
-    /// The ports that can be connected now.
-    pub fn port_names(&self) -> Vec<String> {
-        names(&self.watcher)
-    }
-
-    /// The connected port's name.
-    pub fn port(&self) -> &str {
-        &self.port
-    }
-
-    /// Connect to the port of this exact name; its messages go to `sink`.
-    pub fn connect(&mut self, port: &str, sink: EventSink) -> Result<(), LiveMidiError> {
-        self.port = port.to_string();
-        self.sink = Some(sink);
-        self.reconnect()
-    }
-
-    fn reconnect(&mut self) -> Result<(), LiveMidiError> {
-        let err = |message: String| LiveMidiError::Connect { port: self.port.clone(), message };
-        let input = match (self.idle.take(), self.connection.take()) {
-            (Some(input), _) => input,
-            (None, Some(conn)) => conn.close().0,
-            (None, None) => open(&self.client_name)?,
-        };
-        let Some(port) = input.ports().into_iter().find(|p| input.port_name(p).ok().as_deref() == Some(&self.port))
-        else {
-            self.idle = Some(input);
-            return Err(err("no such port".into()));
-        };
-        let sink = self.sink.clone().ok_or_else(|| err("no event sink".into()))?;
-        match input.connect(&port, "midi_in", move |_, bytes, _| sink.handle(bytes), ()) {
-            Ok(conn) => {
-                self.connection = Some(conn);
-                self.present = true;
-                Ok(())
-            }
-            Err(e) => {
-                let message = e.to_string();
-                self.idle = Some(e.into_inner());
-                Err(err(message))
-            }
-        }
-    }
-
-    /// Look whether the port is still there (call about once a second): report it gone, or
-    /// reconnect when a port of the same name is back.
-    pub fn check(&mut self) -> Option<PortChange> {
-        let here = names(&self.watcher).contains(&self.port);
-        match (self.present, here) {
-            (true, false) => {
-                self.present = false;
-                Some(PortChange::Disappeared(self.port.clone()))
-            }
-            (false, true) => self.reconnect().ok().map(|()| PortChange::Reconnected(self.port.clone())),
-            _ => None,
-        }
-    }
-}
+#[cfg(not(feature = "jack"))]
+mod alsa;
+#[cfg(not(feature = "jack"))]
+pub use alsa::{input_port_names, LiveInput};
+#[cfg(feature = "jack")]
+mod jack_input;
+#[cfg(feature = "jack")]
+pub use jack_input::{input_port_names, LiveInput};
 
 #[cfg(test)]
 mod tests {

@@ -1,4 +1,4 @@
-//! MIDI in: standard MIDI files (midly), note maps, the 60 fps piano roll, live input (midir).
+//! MIDI in: standard MIDI files (midly), note maps, the 60 fps piano roll, live input (midir for ALSA, the jack crate for JACK).
 
 pub mod error;
 pub mod file;

@@ -20,8 +20,8 @@ pub mod feet;
 pub mod matching;
 pub mod offline;
 pub mod paced;
-pub mod replay;
 pub mod rehearsal;
+pub mod replay;
 pub mod targets;
 
 pub use conductor::{Conductor, PREROLL_S, STEPS_PER_PERIOD};
