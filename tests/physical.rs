@@ -354,3 +354,46 @@ fn the_physical_demo_sounds_like_the_direct_one_note_by_note() {
         assert!(drumsim::eval::note_sound::sound(&kit, &[c], &[], t0).unwrap().is_some(), "silent: {c:?}");
     }
 }
+
+/// Live play on a simulated clock (`perform::replay`: the window plans every 50 ms, handed
+/// to the body when live play would): deterministic, and it plays a Groove MIDI take about
+/// as well as the straight offline play-through (README, "The live physical drummer").
+#[test]
+fn live_play_on_a_simulated_clock_repeats_exactly_and_strikes_the_notes() {
+    use drumsim::perform::replay::{replay, ReplaySettings};
+    let take = "drummer1/session2/1_latin-chacarera_157_beat_3-4.mid";
+    let map = NoteMap::builtin("roland-td").unwrap();
+    let kit = Kit::builtin_default();
+    let perf = read_file(&root().join("data/gmd").join(take), &ReadOptions { channel: 10 }).unwrap();
+    let end = 12.0;
+    let run = || {
+        let r = replay(
+            &kit,
+            &map,
+            HandModel::shipped(),
+            shipped_library().unwrap(),
+            &perf,
+            end,
+            &ReplaySettings::default(),
+        )
+        .unwrap();
+        r.strikes
+            .iter()
+            .filter(|s| s.time_s >= -0.01)
+            .map(|s| s.message_named(&r.surfaces[s.surface]))
+            .collect::<Vec<_>>()
+    };
+    let (a, b) = (run(), run());
+    assert_eq!(a.len(), b.len());
+    assert!(a.iter().zip(&b).all(|(x, y)| x.time_s == y.time_s && x.piece == y.piece), "the same contacts, twice");
+    let notes: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < end - 0.1).collect();
+    let (of, played) = match_contacts(&notes, &a);
+    let recall = played.iter().filter(|p| **p).count() as f64 / notes.len() as f64;
+    let precision = of.iter().filter(|o| o.is_some()).count() as f64 / of.len() as f64;
+    let errs: Vec<f64> =
+        of.iter().zip(&a).filter_map(|(o, m)| o.map(|i| 1e3 * (m.time_s as f64 - notes[i].time_s))).collect();
+    let (mean, sd) = mean_sd(&errs);
+    eprintln!("{take}, live on a simulated clock: recall {recall:.3}, precision {precision:.3}, timing {mean:+.2} / {sd:.2} ms");
+    assert!(recall >= 0.97 && precision >= 0.90, "recall {recall:.3}, precision {precision:.3}");
+    assert!(mean.abs() <= 2.0 && sd <= 4.0, "timing {mean:+.2} / {sd:.2} ms");
+}

@@ -47,7 +47,12 @@ pub struct Replayed {
     pub plans: usize,
 }
 
-/// Play `perf` (its times are the session's) until `end_s` as live play would.
+/// The player starts this long after the session (as a player does): the first notes are
+/// not the body's first moments, s.
+const LEAD_IN_S: f64 = 1.0;
+
+/// Play `perf` until `end_s` as live play would, the player starting [`LEAD_IN_S`] into the
+/// session; the strikes' times are the performance's.
 pub fn replay(
     kit: &Kit,
     map: &NoteMap,
@@ -66,11 +71,13 @@ pub fn replay(
     let delay = s.lookahead_s - s.lead_s;
     let mut c = Conductor::live(kit, settings, first.targets, first.pedals, -delay)?;
     let surfaces = c.drummer().surfaces().iter().map(|x| x.id.clone()).collect();
-    let mut events = perf.events.iter().peekable();
+    let shifted: Vec<_> =
+        perf.events.iter().map(|e| crate::midi::DrumEvent { time_s: e.time_s + LEAD_IN_S, ..*e }).collect();
+    let mut events = shifted.iter().peekable();
     let mut strikes = Vec::new();
     let mut next_plan = s.plan_every_s;
     let mut plans = 0;
-    while c.time_s() < end_s {
+    while c.time_s() < end_s + LEAD_IN_S {
         let wall = c.time_s() + 1.0 / TASK_HZ + delay;
         // Every plan whose moment came before this period is due, made from the events that had
         // arrived by then.
@@ -83,7 +90,10 @@ pub fn replay(
             plans += 1;
             next_plan += s.plan_every_s;
         }
-        c.period(&mut |st| strikes.push(st));
+        c.period(&mut |mut st| {
+            st.time_s -= LEAD_IN_S;
+            strikes.push(st)
+        });
     }
     Ok(Replayed { strikes, surfaces, plans })
 }
