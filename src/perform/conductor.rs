@@ -76,10 +76,38 @@ pub struct Conductor {
     /// The targets the last period ended on before the learned offsets and clearances: where
     /// the plan wants the tips.
     aims: [Vector; 2],
+    /// Live play: the plan given up at the last [`Conductor::replan`] and when, faded out
+    /// over [`REPLAN_FADE_S`].
+    previous: Option<(TipTargets, f64)>,
 }
+
+/// A newer plan takes over from the one before it over this long, s: a stroke already under
+/// way changes course smoothly, not in one period.
+pub const REPLAN_FADE_S: f64 = 0.080;
 
 fn lerp(a: &ArmTarget, b: &ArmTarget, x: f32) -> ArmTarget {
     ArmTarget { tip: a.tip.lerp(b.tip, x), dir: a.dir.lerp(b.dir, x).normalize_or(Vector::Y) }
+}
+
+/// Hand `h`'s target at `t` from `targets`, blended from the plan before them while that
+/// fades out (live play).
+fn target_at(
+    targets: &TipTargets,
+    previous: &Option<(TipTargets, f64)>,
+    h: usize,
+    t: f64,
+    touched: Option<(f64, f64)>,
+) -> ArmTarget {
+    let new = targets.at(h, t, touched);
+    match previous {
+        Some((old, since)) if t < since + REPLAN_FADE_S => {
+            let w = ((t - since) / REPLAN_FADE_S).clamp(0.0, 1.0) as f32;
+            // Minimum-jerk weight: no kink where the fade starts or ends.
+            let w = w * w * w * (10.0 - 15.0 * w + 6.0 * w * w);
+            lerp(&old.at(h, t, touched), &new, w)
+        }
+        _ => new,
+    }
 }
 
 /// The task period (from the preroll's start) that ends at performance time `t`.
@@ -148,22 +176,24 @@ impl Conductor {
             .collect();
         let from = [targets.at(0, t, None), targets.at(1, t, None)];
         let state = BodyState { drummer, from, touched: [None; 2], pedals: bodies, kick_touched: None, t };
-        Conductor { state, targets, pedal_targets, plates, piece_of, aims: [from[0].tip, from[1].tip] }
+        Conductor { state, targets, pedal_targets, plates, piece_of, aims: [from[0].tip, from[1].tip], previous: None }
     }
 
-    /// Follow a newer plan from the next period on (live play); the plan given up is
+    /// Follow a newer plan from the next period on (live play), faded in over
+    /// [`REPLAN_FADE_S`]; the plans given up (the one faded out before, and the pedals') are
     /// returned, to be dropped off the physics thread.
     pub fn replan(
         &mut self,
         targets: TipTargets,
         pedal_targets: Option<PedalTargets>,
-    ) -> (TipTargets, Option<PedalTargets>) {
+    ) -> (Option<TipTargets>, Option<PedalTargets>) {
         let old = std::mem::replace(&mut self.targets, targets);
+        let faded = self.previous.replace((old, self.state.t)).map(|(t, _)| t);
         let old_pedals = match (pedal_targets, &mut self.pedal_targets) {
             (Some(new), Some(current)) => Some(std::mem::replace(current, new)),
             _ => None,
         };
-        (old, old_pedals)
+        (faded, old_pedals)
     }
 
     /// Let `n` task periods go by unplayed (a live body that fell behind the wall clock):
@@ -245,7 +275,10 @@ impl Conductor {
         let t1 = st.t + 1.0 / TASK_HZ;
         let sim = st.drummer.tips(Mode::Himc);
         let p1 = period_index(t1);
-        let mut to = [self.targets.at(0, t1, st.touched[0]), self.targets.at(1, t1, st.touched[1])];
+        let mut to = [
+            target_at(&self.targets, &self.previous, 0, t1, st.touched[0]),
+            target_at(&self.targets, &self.previous, 1, t1, st.touched[1]),
+        ];
         self.aims = to.map(|a| a.tip);
         let surfaces = st.drummer.surfaces();
         for (h, target) in to.iter_mut().enumerate() {
@@ -260,7 +293,7 @@ impl Conductor {
         let via: [Option<(usize, ArmTarget)>; 2] = std::array::from_fn(|h| {
             let tb = self.targets.bottom_within(h, st.t, t1)?;
             let kv = (((tb - st.t) / DT_S as f64).round() as usize).clamp(1, STEPS_PER_PERIOD - 1);
-            let mut v = self.targets.at(h, tb, st.touched[h]);
+            let mut v = target_at(&self.targets, &self.previous, h, tb, st.touched[h]);
             v.tip += self.targets.offset(h, p1);
             Some((kv, v))
         });
@@ -308,7 +341,7 @@ impl Conductor {
             for h in 0..2 {
                 if st.touched[h] != before[h] && k + 1 < STEPS_PER_PERIOD {
                     // Mid-period: the rest of the period heads for the rebound at once.
-                    to[h] = self.targets.at(h, t1, st.touched[h]);
+                    to[h] = target_at(&self.targets, &self.previous, h, t1, st.touched[h]);
                     self.aims[h] = to[h].tip;
                     to[h].tip += self.targets.offset(h, p1);
                     start[h] = tg[h];

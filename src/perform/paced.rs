@@ -52,7 +52,7 @@ pub struct BodyPlan {
 }
 
 /// A plan the body gave up, dropped off the physics thread.
-pub type Spent = (TipTargets, Option<PedalTargets>);
+pub type Spent = (Option<TipTargets>, Option<PedalTargets>);
 
 /// Makes body plans from window plans (on the planning thread).
 pub struct BodyPlanner {
