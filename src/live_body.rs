@@ -63,6 +63,8 @@ pub struct PlanStats {
     pub notes: AtomicU64,
     /// Messages the sound had no room for.
     pub unsent: AtomicU64,
+    /// Events a full window dropped (a note flood, `motion::window::MAX_EVENTS`).
+    pub flooded: AtomicU64,
     pub messages: AtomicU64,
 }
 
@@ -156,6 +158,7 @@ pub fn start(
                         continue;
                     }
                 };
+                stats.flooded.store(window.flooded(), Relaxed);
                 let plan = planner.plan(&w);
                 let us = last.elapsed().as_micros() as u64;
                 stats.plans.fetch_add(1, Relaxed);
@@ -236,7 +239,7 @@ impl LiveBody {
         let n = p.plans.load(Relaxed).max(1);
         let mut text = format!(
             "{}; {} plans ({:.1} ms mean, {:.1} ms max, {} not taken in time, {} failed), {} notes ({} learned of \
-             too late for a full stroke), {} messages ({} the sound had no room for)",
+             too late for a full stroke, {} dropped in a note flood), {} messages ({} the sound had no room for)",
             self.body.report(),
             p.plans.load(Relaxed),
             p.plan_us_total.load(Relaxed) as f64 / n as f64 / 1e3,
@@ -245,6 +248,7 @@ impl LiveBody {
             p.failed.load(Relaxed),
             p.notes.load(Relaxed),
             p.short_strokes.load(Relaxed),
+            p.flooded.load(Relaxed),
             p.messages.load(Relaxed),
             p.unsent.load(Relaxed),
         );

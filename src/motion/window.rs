@@ -23,6 +23,11 @@ pub const FADE_S: f64 = 0.1;
 /// Context kept before the shown time, s: the hand model and retrieval see this much past.
 pub const HISTORY_S: f64 = 2.0;
 
+/// Most events a window holds: a drummer plays well under 100 notes in its 2.25 s, a broken
+/// controller may send thousands a second. Events past this are dropped and counted, so a
+/// flood cannot make plans ever slower.
+pub const MAX_EVENTS: usize = 1024;
+
 /// The sliding-window motion stage.
 pub struct WindowMotion {
     kit: Kit,
@@ -34,6 +39,8 @@ pub struct WindowMotion {
     events: VecDeque<DrumEvent>,
     /// The last hi-hat pedal position before the window (carried into it).
     pedal_before: Option<u8>,
+    /// Events dropped because the window held [`MAX_EVENTS`].
+    flooded: u64,
 }
 
 /// One plan: motion at 60 fps from `start_s` (session clock).
@@ -88,7 +95,16 @@ pub fn blend(a: &MotionFrame, b: &MotionFrame, w: f32) -> MotionFrame {
 
 impl WindowMotion {
     pub fn new(kit: Kit, map: NoteMap, model: HandModel, library: Library, lookahead_s: f64) -> WindowMotion {
-        WindowMotion { kit, map, model, library, lookahead_s, events: VecDeque::new(), pedal_before: None }
+        WindowMotion {
+            kit,
+            map,
+            model,
+            library,
+            lookahead_s,
+            events: VecDeque::with_capacity(MAX_EVENTS),
+            pedal_before: None,
+            flooded: 0,
+        }
     }
 
     pub fn lookahead_s(&self) -> f64 {
@@ -97,7 +113,17 @@ impl WindowMotion {
 
     /// A MIDI event as it arrives (its `time_s` on the session clock).
     pub fn push(&mut self, event: DrumEvent) {
+        if self.events.len() >= MAX_EVENTS {
+            // Room is made only by time: the oldest leave at the next plan.
+            self.flooded += 1;
+            return;
+        }
         self.events.push_back(event);
+    }
+
+    /// Events dropped because the window was full (a note flood).
+    pub fn flooded(&self) -> u64 {
+        self.flooded
     }
 
     /// Where the window of a plan made at `now_s` starts.
@@ -165,5 +191,33 @@ pub fn shown_frame(newest: &WindowPlan, before: Option<&WindowPlan>, since_s: f6
             blend(&old.frame_at(t), &new, w)
         }
         _ => new,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_note_flood_is_capped_and_counted_and_plans_stay_bounded() {
+        let kit = Kit::builtin_default();
+        let map = NoteMap::builtin("gm").unwrap();
+        let library = crate::motion::pipeline::shipped_library().unwrap();
+        let mut w = WindowMotion::new(kit, map, HandModel::shipped(), library, 0.25);
+        // A broken controller: 10,000 snare notes a second for a second.
+        for i in 0..10_000u64 {
+            let kind = DrumEventKind::NoteOn { note: 38, velocity: 100 };
+            w.push(DrumEvent { time_s: 1.0 + i as f64 * 1e-4, tick: i, kind });
+        }
+        assert_eq!(w.flooded(), 10_000 - MAX_EVENTS as u64);
+        let start = std::time::Instant::now();
+        let plan = w.plan(2.0).unwrap();
+        let took = start.elapsed();
+        assert!(plan.notes.len() <= MAX_EVENTS && !plan.motion.frames.is_empty());
+        eprintln!("a plan of a flooded window: {} notes in {took:?}", plan.notes.len());
+        // After the window has moved past the flood, events are taken again.
+        let _ = w.plan(10.0).unwrap();
+        w.push(DrumEvent { time_s: 10.0, tick: 0, kind: DrumEventKind::NoteOn { note: 38, velocity: 90 } });
+        assert_eq!(w.flooded(), 10_000 - MAX_EVENTS as u64);
     }
 }
