@@ -5,6 +5,7 @@
 //! removes the partials of every set still being written ([`remove_partials_on_interrupt`]).
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 /// Partial files being written now, in every set of the process, for the interrupt handler.
@@ -17,11 +18,30 @@ fn live() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     LIVE.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// Set by [`stop_gracefully_on_interrupt`]: an interrupt then only raises [`interrupted`].
+static GRACEFUL: AtomicBool = AtomicBool::new(false);
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// From now on the first Ctrl-C or SIGTERM only raises [`interrupted`], for a command that
+/// stops itself cleanly (the sound server closes its audio client and shows its counts); a
+/// second one exits at once.
+pub fn stop_gracefully_on_interrupt() {
+    GRACEFUL.store(true, Ordering::SeqCst);
+}
+
+/// Whether an interrupt asked a graceful command to stop.
+pub fn interrupted() -> bool {
+    INTERRUPTED.load(Ordering::SeqCst)
+}
+
 /// Install a handler for SIGINT, SIGTERM and SIGHUP that removes the partial files of every
 /// unpublished set and exits with [`INTERRUPTED_EXIT`]. A set being published at that moment
 /// finishes first, so the folder holds the whole new set or the whole old one.
 pub fn remove_partials_on_interrupt() -> Result<(), ctrlc::Error> {
     ctrlc::set_handler(|| {
+        if GRACEFUL.load(Ordering::SeqCst) && !INTERRUPTED.swap(true, Ordering::SeqCst) {
+            return;
+        }
         let partials = live();
         for p in partials.iter() {
             let _ = std::fs::remove_file(p);

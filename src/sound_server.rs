@@ -74,11 +74,18 @@ pub fn run(opts: &ServerOptions) -> anyhow::Result<()> {
          they arrive, time-tagged ones at their tag",
         audio.label, audio.sample_rate_hz, kit.name, opts.latency_ms
     );
+    // Ctrl-C and SIGTERM stop the server as --duration-s does: its last counts are shown and
+    // its audio client closes cleanly (JACK keeps no trace of it); then exit code 130.
+    crate::outputs::stop_gracefully_on_interrupt();
     let start = Instant::now();
     let result = supervise(&audio, &counts, opts.duration_s);
     stop.store(true, Relaxed);
     feeder.join().map_err(|_| anyhow::anyhow!("the feed thread panicked"))?.context("receiving messages")?;
     eprintln!("drumsim sound: stopped after {:.1} s: {}", start.elapsed().as_secs_f64(), report(&counts, &audio));
+    drop(audio);
+    if crate::outputs::interrupted() {
+        std::process::exit(crate::outputs::INTERRUPTED_EXIT);
+    }
     result
 }
 
@@ -93,7 +100,8 @@ fn report(counts: &NetCounts, audio: &AudioOutput) -> String {
     )
 }
 
-/// Until `duration_s`: show the counts when they change, stop if the audio output fails.
+/// Until `duration_s` or an interruption: show the counts when they change, stop if the
+/// audio output fails.
 fn supervise(audio: &AudioOutput, counts: &NetCounts, duration_s: Option<f64>) -> anyhow::Result<()> {
     let start = Instant::now();
     let deadline = duration_s.map(|d| start + Duration::from_secs_f64(d));
@@ -101,7 +109,7 @@ fn supervise(audio: &AudioOutput, counts: &NetCounts, duration_s: Option<f64>) -
     let mut shown = String::new();
     loop {
         let now = Instant::now();
-        if deadline.is_some_and(|d| now >= d) {
+        if deadline.is_some_and(|d| now >= d) || crate::outputs::interrupted() {
             return Ok(());
         }
         thread::sleep(Duration::from_millis(50));

@@ -21,6 +21,16 @@ use std::time::{Duration, Instant};
 /// The sound's lookahead in every run, ms: the note sounds this long after it was played.
 const LOOKAHEAD_MS: f64 = 20.0;
 
+/// Stop the sound server as a user does (SIGTERM, like Ctrl-C): it prints its last counts
+/// and closes its JACK client cleanly (a client killed outright can keep jackd from exiting
+/// on SIGTERM, and a jackd killed outright keeps its slot in JACK's server registry).
+fn stop(server: &mut Drumsim) {
+    let _ = Command::new("kill").args(["-TERM", &server.child.id().to_string()]).status();
+    let status = server.wait_exit(Duration::from_secs(10));
+    assert_eq!(status.code(), Some(130), "drumsim sound on SIGTERM: {status}\n{}", server.stderr());
+    assert!(server.stderr().contains("drumsim sound: stopped after"), "{}", server.stderr());
+}
+
 fn free_udp_port() -> u16 {
     UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
 }
@@ -127,7 +137,7 @@ fn a_sound_server_in_another_process_sounds_each_note_when_the_in_process_sound_
         save_wav(path.as_ref(), &x);
     }
     let there = latencies(&x, &starts);
-    let _ = server.child.kill();
+    stop(&mut server);
     let mut diffs = Vec::new();
     for (i, (a, b)) in here.iter().zip(&there).enumerate() {
         let (Some(a), Some(b)) = (a, b) else { panic!("note group {i}: in process {a:?} ms, over UDP {b:?} ms") };
@@ -227,7 +237,7 @@ fn lost_duplicated_and_reordered_datagrams_are_counted_and_every_delivered_strik
     let lookahead = LOOKAHEAD_MS.to_string();
     let x = play(&jack, events, &["--sound-to", &to, "--lookahead-ms", &lookahead], Record::Server(&server));
     let heard = latencies(&x, &starts);
-    server.child.kill().unwrap();
+    stop(&mut server);
     let log = log.lock().unwrap();
     let lost = log.datagrams.iter().filter(|(_, d)| !d).count();
     println!(
@@ -255,7 +265,7 @@ fn lost_duplicated_and_reordered_datagrams_are_counted_and_every_delivered_strik
     }
     assert!(silent_lost >= 1, "a lost single note is silent");
     let stopped = server.stderr();
-    let last = stopped.lines().rev().find(|l| l.contains("datagrams")).unwrap_or_default().to_string();
+    let last = stopped.lines().rev().find(|l| l.contains("stopped after")).unwrap_or_default().to_string();
     let count = |what: &str| -> u64 {
         let before = last.split(&format!(" {what}")).next().unwrap_or_default();
         before.rsplit(' ').next().and_then(|n| n.parse().ok()).unwrap_or(u64::MAX)
