@@ -89,16 +89,14 @@ pub fn prepare(kit: &Kit, map: &NoteMap, lookahead_s: f64) -> anyhow::Result<Pre
         None => HandModel::shipped(),
     };
     let settings = DrummerSettings::default();
-    let shape = TargetShape::of(&Drummer::new(kit, settings.clone())?);
-    let planner = BodyPlanner::new(shape, kit, map);
+    // Built here once to fail early and to learn its stick and surfaces; the body itself is
+    // built again on its own thread (its memory that thread's pool's).
+    let drummer = Drummer::new(kit, settings.clone())?;
+    let surfaces = drummer.surfaces().iter().map(|s| s.id.clone()).collect();
+    let planner = BodyPlanner::new(TargetShape::of(&drummer), kit, map);
     let mut window = WindowMotion::new(kit.clone(), map.clone(), model, library, lookahead_s);
-    let waiting = window.plan(0.0)?;
+    let first = planner.plan(&window.plan(0.0)?);
     let t0 = -lookahead_s + LEAD_MS / 1e3;
-    // Built here once to fail early (and name the surfaces), then again on the body's thread.
-    let first = planner.plan(&waiting);
-    let conductor = Conductor::live(kit, settings.clone(), first.targets, first.pedals, t0)?;
-    let surfaces = conductor.drummer().surfaces().iter().map(|s| s.id.clone()).collect();
-    let first = planner.plan(&waiting);
     Ok(Prepared { window, planner, surfaces, kit: kit.clone(), settings, first, t0 })
 }
 

@@ -172,3 +172,68 @@ fn a_groove_midi_take_played_live_is_struck_by_the_body_each_note_lookahead_afte
     assert!(recall >= 0.97 && precision >= 0.90, "recall {recall:.3}, precision {precision:.3}");
     assert!(mean.abs() <= 0.002 && sd <= 0.0045, "contact - note: mean {mean:+.4} s, sd {sd:.4} s");
 }
+
+/// The same drummer with its sound in this process (`--audio jack`, no `--sound-to`): the
+/// test client records drumsim's audio port, and the notes of a short run of drums sound in
+/// the recording about the lookahead after they were played (measured: 245-254 ms at 250).
+#[test]
+fn the_live_physical_drummer_sounds_through_its_own_audio_output() {
+    use jack::PortFlags;
+    let _turn = one_at_a_time();
+    let jack = JackServer::start();
+    // Drums only, a second apart: a crash rings too long for the onset detector.
+    let notes = [(38u8, 100u8), (36, 110), (45, 90), (38, 120), (48, 100), (36, 100), (38, 80), (43, 110)];
+    let starts: Vec<u64> = (0..notes.len() as u64).map(|i| FIRST_NOTE + RATE + i * RATE).collect();
+    let schedule = notes.iter().zip(&starts).map(|(&(n, v), &t)| (t, [0x99, n, v])).collect();
+    let total = starts.last().unwrap() + RATE;
+    let (client, armed, progress) = player("drumsim-test", schedule, total as usize);
+    let seconds = (total / RATE + 3).to_string();
+    let lookahead = LOOKAHEAD_MS.to_string();
+    let args = [
+        "--midi",
+        "drumsim-test:midi_out",
+        "--map",
+        "gm",
+        "--sound",
+        "physical",
+        "--audio",
+        "jack",
+        "--lookahead-ms",
+        &lookahead,
+        "--duration-s",
+        &seconds,
+    ];
+    let mut live = Drumsim::live(&jack, &args);
+    live.wait_for("drumsim live: MIDI", Duration::from_secs(60));
+    let pattern = format!("cpal_client_{}_out:", live.child.id());
+    let outs = client.as_client().ports(Some(&pattern), Some("32 bit float mono audio"), PortFlags::IS_OUTPUT);
+    assert!(outs.len() >= 2, "the audio ports ({pattern}*): {outs:?}");
+    for (out, input) in outs.iter().zip(["drumsim-test:in_l", "drumsim-test:in_r"]) {
+        client.as_client().connect_ports_by_name(out, input).unwrap();
+    }
+    armed.store(true, Ordering::Release);
+    let start = Instant::now();
+    while progress.load(Ordering::Acquire) < total {
+        assert!(start.elapsed() < Duration::from_secs(60), "JACK is not running the test client");
+        thread::sleep(Duration::from_millis(50));
+    }
+    let (_, _, player) = client.deactivate().unwrap();
+    let status = live.wait_exit(Duration::from_secs(30));
+    assert!(status.success(), "drumsim live failed ({status}):\n{}", live.stderr());
+    let ms = |m: f64| (m * RATE as f64 / 1000.0) as usize;
+    let heard: Vec<Option<f64>> = starts
+        .iter()
+        .map(|&t| {
+            let from = t as usize + ms(LOOKAHEAD_MS - 40.0);
+            onset(&player.recorded, from, from + ms(80.0)).map(|at| (at - t as usize) as f64 * 1e3 / RATE as f64)
+        })
+        .collect();
+    println!("each note heard after it was played (ms): {heard:.1?}");
+    // The body strikes about 99 % of notes (a tom now and then is missed): all but one here.
+    let sounded: Vec<f64> = heard.iter().flatten().copied().collect();
+    assert!(sounded.len() + 1 >= notes.len(), "{} of {} notes sounded:\n{}", sounded.len(), notes.len(), live.stderr());
+    assert!(
+        sounded.iter().all(|h| (h - LOOKAHEAD_MS).abs() <= 10.0),
+        "each about the lookahead after its note: {heard:.1?}"
+    );
+}
