@@ -12,8 +12,9 @@ packages+=(openttd-openmsx planetblupi-music-midi)
 # GNU time measures a render's peak memory in the tests.
 packages+=(time)
 # The viewer (`drumsim view`) is tested in a real headless Chromium; `drumsim video` draws
-# its frames there and encodes them with ffmpeg.
-packages+=(chromium ffmpeg)
+# its frames there and encodes them with ffmpeg. Without a GPU, Chromium draws WebGL fastest
+# through Mesa's llvmpipe (EGL and the DRI drivers), about twice SwiftShader's speed.
+packages+=(chromium ffmpeg libegl-mesa0 libgl1-mesa-dri)
 # The sound server's test reads drumsim's contact messages with liblo's oscdump.
 packages+=(liblo-tools)
 # The VMC test receives with python-osc (installed below into /opt/drumsim-python).

@@ -108,9 +108,25 @@ fn the_viewer_shows_the_drummer_playing_in_step_with_the_sound() {
     let viewer = start_viewer(&render);
     let mut b = Browser::launch(&chrome, W, H);
     eprintln!("viewer at {}", viewer.url);
-    b.navigate(&viewer.url);
+    // A fixed drawing scale, so that screenshots compare pixel for pixel.
+    b.navigate(&format!("{}?scale=1", viewer.url));
     assert!(b.wait_for("!!(window.drumsim && (drumsim.ready || drumsim.errors.length))", Duration::from_secs(90)));
     assert_eq!(b.eval("drumsim.errors"), serde_json::json!([]), "the page failed to load");
+    // The dynamic drawing scale (off here: ?scale=1), fed frame intervals: frames at the
+    // display's 60 Hz keep it; a second of missed frames lowers it a step; 5 s at 60 Hz
+    // raise it back; a step up that fails at once waits twice as long before the next try.
+    let feed = |b: &mut Browser, ms: f64, n: usize| {
+        b.eval(&format!("drumsim.feedFrameIntervals(Array({n}).fill({ms}))")).as_f64().unwrap()
+    };
+    assert_eq!(feed(&mut b, 16.7, 60), 1.0);
+    let lowered = feed(&mut b, 33.4, 30);
+    assert!((lowered - 0.85).abs() < 1e-9, "a second of 30 fps left the scale at {lowered}");
+    assert!((feed(&mut b, 16.7, 270) - 0.85).abs() < 1e-9, "raised before 5 s at 60 fps");
+    assert_eq!(feed(&mut b, 16.7, 30), 1.0, "not raised after 5 s at 60 fps");
+    assert!((feed(&mut b, 33.4, 30) - 0.85).abs() < 1e-9);
+    assert!((feed(&mut b, 16.7, 300) - 0.85).abs() < 1e-9, "a failed step up was retried after 5 s");
+    assert_eq!(feed(&mut b, 16.7, 300), 1.0, "a failed step up was not retried after 10 s");
+    assert_eq!(b.eval("drumsim.scaling.auto"), serde_json::json!(false));
     let shots = dir.join("shots");
     std::fs::create_dir_all(&shots).unwrap();
 
@@ -419,4 +435,40 @@ fn video_without_chromium_or_ffmpeg_says_what_to_install() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("--size \"641x360\""), "{err}");
     assert!(!render.with_extension("mp4").exists());
+}
+
+/// The page's frame times while it plays a long take, as a user watching it would get them
+/// (a measurement, not an assert): `DRUMSIM_VIEWER_TAKE` (default the 181 s
+/// `drummer8/session2/37_rock_112_beat_4-4`), `DRUMSIM_VIEWER_SIZE` (default 1280x720),
+/// 20 s from the take's middle.
+/// `cargo test --release --test viewer frame_times -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn frame_times() {
+    let Some(chrome) = browser_or_skip() else { return };
+    let take =
+        std::env::var("DRUMSIM_VIEWER_TAKE").unwrap_or("data/gmd/drummer8/session2/37_rock_112_beat_4-4.mid".into());
+    let (w, h) = drumsim::view::video::parse_size(&std::env::var("DRUMSIM_VIEWER_SIZE").unwrap_or("1280x720".into()))
+        .expect("DRUMSIM_VIEWER_SIZE as WxH");
+    let dir = out_dir("frame-times");
+    let out = drumsim().args(["render", &take, "--sound", "direct", "--out"]).arg(&dir).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stem = Path::new(&take).file_stem().unwrap().to_str().unwrap().to_string();
+    let viewer = start_viewer(&dir.join(stem));
+    let mut b = Browser::launch(&chrome, w, h);
+    b.navigate(&format!("{}{}", viewer.url, std::env::var("DRUMSIM_VIEWER_QUERY").unwrap_or_default()));
+    assert!(b.wait_for("!!(window.drumsim && (drumsim.ready || drumsim.errors.length))", Duration::from_secs(90)));
+    assert_eq!(b.eval("drumsim.errors"), serde_json::json!([]), "the page failed to load");
+    let renderer = b.eval("drumsim.renderer");
+    let middle = b.eval("drumsim.audioDuration()").as_f64().unwrap_or(20.0) / 2.0 - 10.0;
+    if let Ok(js) = std::env::var("DRUMSIM_VIEWER_EVAL") {
+        b.eval(&js);
+    }
+    b.eval(&format!("drumsim.seek({}); drumsim.play()", middle.max(0.0)));
+    std::thread::sleep(Duration::from_secs(2));
+    b.eval("drumsim.resetFrameStats()");
+    std::thread::sleep(Duration::from_secs(20));
+    let stats = b.eval("drumsim.frameStats()");
+    b.screenshot(Some(&dir.join("playing.png")));
+    println!("{w}x{h}, {renderer}: {stats}; a screenshot: {}", dir.join("playing.png").display());
 }

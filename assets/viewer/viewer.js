@@ -35,20 +35,71 @@ const audio = $('audio');
 
 // A software renderer (SwiftShader: headless Chromium, machines without a GPU) draws
 // without multisampling at one pixel per CSS pixel, to hold the frame rate.
-function softwareRendering() {
+function glRenderer() {
   try {
     const gl = document.createElement('canvas').getContext('webgl2');
     const ext = gl && gl.getExtension('WEBGL_debug_renderer_info');
-    const name = ext ? gl.getParameter(ext.UNMASKED_RENDERER_WEBGL) : '';
-    return /swiftshader|llvmpipe|software/i.test(name);
+    return ext ? gl.getParameter(ext.UNMASKED_RENDERER_WEBGL) : '';
   } catch (e) {
-    return false;
+    return '';
   }
 }
+api.renderer = glRenderer();
+const softwareRendering = () => /swiftshader|llvmpipe|software/i.test(api.renderer);
 const software = params.has('software') ? params.get('software') === '1' : softwareRendering();
-const renderer = new THREE.WebGLRenderer({ antialias: !software, alpha: transparent, preserveDrawingBuffer: true });
-renderer.setPixelRatio(software ? 1 : Math.min(window.devicePixelRatio || 1, 2));
+const renderer = new THREE.WebGLRenderer({ antialias: !software, alpha: transparent });
+const fullRatio = software ? 1 : Math.min(window.devicePixelRatio || 1, 2);
+renderer.setPixelRatio(fullRatio);
 renderer.setSize(window.innerWidth, window.innerHeight);
+
+// Drawing scale (?scale=auto, the default, or a fixed 0.25-1): with a software renderer the
+// page draws at a lower resolution, upscaled by the browser, while its frames come slower
+// than the display's (a dynamic resolution, as games do): where a GPU draws every pixel at
+// the display's rate, a CPU drawing a 1280x720 page often cannot. Every 30 frames it looks
+// at how many missed the display's refresh (an interval over 1.5 times the shortest one
+// seen); more than 3 of 30 lowers the scale a step (x0.85, down to 0.5); 5 s without a
+// miss tries a step back up, and a step that failed is tried again only after twice as long.
+const scaleParam = params.get('scale') || 'auto';
+const scaling = {
+  auto: software && scaleParam === 'auto' && params.get('video') !== '1',
+  scale: scaleParam === 'auto' ? 1 : Math.min(1, Math.max(0.25, parseFloat(scaleParam) || 1)),
+  refresh: Infinity, intervals: [], calm: 0, waitUp: 300, trying: false, tried: 0,
+};
+function applyScale(scale) {
+  scaling.scale = scale;
+  renderer.setPixelRatio(fullRatio * scale);
+  renderer.setSize(window.innerWidth, window.innerHeight);
+  scaling.intervals.length = 0;
+}
+if (scaling.scale !== 1) applyScale(scaling.scale);
+function adaptScale(interval) {
+  scaling.refresh = Math.max(4, Math.min(scaling.refresh, interval));
+  scaling.intervals.push(interval);
+  if (scaling.intervals.length < 30) return;
+  const missed = scaling.intervals.filter((d) => d > 1.5 * scaling.refresh).length;
+  scaling.intervals.length = 0;
+  if (missed > 3 && scaling.scale > 0.5) {
+    // A step up that fails within 4 checks is not tried again soon.
+    if (scaling.trying) scaling.waitUp = Math.min(2 * scaling.waitUp, 3600);
+    scaling.trying = false;
+    scaling.calm = 0;
+    applyScale(Math.max(0.5, scaling.scale * 0.85));
+    return;
+  }
+  if (scaling.trying && ++scaling.tried >= 4) {
+    scaling.trying = false;
+    scaling.waitUp = 300;
+  }
+  if (missed === 0 && scaling.scale < 1) {
+    scaling.calm += 30;
+    if (scaling.calm >= scaling.waitUp) {
+      scaling.calm = 0;
+      scaling.trying = true;
+      scaling.tried = 0;
+      applyScale(Math.min(1, scaling.scale / 0.85));
+    }
+  } else scaling.calm = 0;
+}
 if (transparent) renderer.setClearColor(0x000000, 0);
 $('stage').appendChild(renderer.domElement);
 
@@ -183,6 +234,7 @@ function frame(now) {
   if (lastFrame) {
     frameTimes.push(now - lastFrame);
     if (frameTimes.length > 1200) frameTimes.shift();
+    if (scaling.auto) adaptScale(now - lastFrame);
   }
   lastFrame = now;
   const t = live ? liveClock() : audio.currentTime;
@@ -210,7 +262,7 @@ api.frameStats = () => {
   const sorted = [...frameTimes].sort((a, b) => a - b);
   const n = sorted.length;
   const mean = n ? sorted.reduce((a, b) => a + b, 0) / n : 0;
-  return { frames: n, mean_ms: mean, p95_ms: n ? sorted[Math.floor(0.95 * (n - 1))] : 0, max_ms: n ? sorted[n - 1] : 0, fps: mean ? 1000 / mean : 0 };
+  return { frames: n, mean_ms: mean, p95_ms: n ? sorted[Math.floor(0.95 * (n - 1))] : 0, max_ms: n ? sorted[n - 1] : 0, fps: mean ? 1000 / mean : 0, scale: scaling.scale };
 };
 api.resetFrameStats = () => { frameTimes.length = 0; lastFrame = 0; };
 
@@ -227,6 +279,10 @@ api.seek = (t) => new Promise((resolve) => {
 api.play = () => audio.play();
 api.pause = () => audio.pause();
 api.audioTime = () => audio.currentTime;
+api.audioDuration = () => duration;
+// The dynamic drawing scale: its state, and intervals (ms) fed to it as if frames had come so.
+api.scaling = scaling;
+api.feedFrameIntervals = (list) => { list.forEach(adaptScale); return scaling.scale; };
 api.setView = setView;
 api.setFollow = (on) => { follow = on; $('follow').checked = on; };
 api.setSticking = (on) => { sticking = on; $('sticking').checked = on; $('legend').hidden = !on; };
@@ -477,6 +533,7 @@ window.addEventListener('resize', () => {
   camera.aspect = window.innerWidth / window.innerHeight;
   camera.updateProjectionMatrix();
   renderer.setSize(window.innerWidth, window.innerHeight);
+  scaling.intervals.length = 0;
 });
 
 load().catch((e) => {

@@ -3,6 +3,7 @@
 //! SONG.contacts.json lighting the piece it struck. The page (`assets/viewer/`) and
 //! three.js (vendored, MIT) are compiled into the binary, so it works with no network.
 
+pub mod chromium;
 pub mod http;
 pub mod live;
 pub mod video;

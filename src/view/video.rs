@@ -60,19 +60,6 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), VideoInputError> {
     Ok((w, h))
 }
 
-/// A program on the PATH.
-fn on_path(name: &str) -> Option<PathBuf> {
-    std::env::var_os("PATH")?.to_str()?.split(':').map(|d| PathBuf::from(d).join(name)).find(|p| p.is_file())
-}
-
-/// Chromium: $CHROMIUM, else `chromium`, `chromium-browser` or `google-chrome` on the PATH.
-pub fn chromium() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("CHROMIUM") {
-        return Some(PathBuf::from(p));
-    }
-    ["chromium", "chromium-browser", "google-chrome"].iter().find_map(|n| on_path(n))
-}
-
 /// What the page's frames came to: how many drumsim took, or what went wrong.
 type PageOutcome = Result<u64, String>;
 
@@ -141,12 +128,15 @@ pub fn make_video(path: &Path, opts: &VideoOptions) -> anyhow::Result<VideoRepor
         return Err(VideoInputError(format!("--fps {}: 1..=120", opts.fps)).into());
     }
     let render = find_render(path)?;
-    let browser = chromium().ok_or(VideoError::Missing {
+    let browser = super::chromium::chromium().ok_or(VideoError::Missing {
         program: "Chromium",
         package: "chromium",
         why: "draws the video's frames",
     })?;
-    let ffmpeg = on_path("ffmpeg").ok_or(VideoError::Missing {
+    // The whole making of the video is timed, the choice of renderer (a probe, about 1 s) too.
+    let started = std::time::Instant::now();
+    let gl = super::chromium::gl(&browser);
+    let ffmpeg = super::chromium::on_path("ffmpeg").ok_or(VideoError::Missing {
         program: "ffmpeg",
         package: "ffmpeg",
         why: "encodes the video",
@@ -201,7 +191,6 @@ pub fn make_video(path: &Path, opts: &VideoOptions) -> anyhow::Result<VideoRepor
     let mut all = routes(&render);
     all.push(Route { path: "/frames".into(), content_type: "text/plain", body: Body::Socket(sink.clone()) });
     let url = super::start_live(all, 0).map_err(|e| VideoError::Failed(format!("cannot serve the page: {e}")))?;
-    let started = std::time::Instant::now();
     let page = format!(
         "{url}?video=1&ui=0&w={}&h={}&fps={}&frames={frames}&view={}",
         opts.width, opts.height, opts.fps, opts.view
@@ -212,8 +201,6 @@ pub fn make_video(path: &Path, opts: &VideoOptions) -> anyhow::Result<VideoRepor
         .args([
             "--headless",
             "--no-sandbox",
-            "--use-angle=swiftshader",
-            "--enable-unsafe-swiftshader",
             "--disable-background-networking",
             "--disable-component-update",
             "--disable-sync",
@@ -221,6 +208,7 @@ pub fn make_video(path: &Path, opts: &VideoOptions) -> anyhow::Result<VideoRepor
             "--mute-audio",
             "--hide-scrollbars",
         ])
+        .args(gl.flags())
         .arg(format!("--window-size={},{}", opts.width, opts.height))
         .arg(format!("--user-data-dir={}", profile.display()))
         .arg(&page)
@@ -281,6 +269,7 @@ pub fn make_video(path: &Path, opts: &VideoOptions) -> anyhow::Result<VideoRepor
         seconds,
         real_time: frames as f64 / f64::from(opts.fps) / seconds,
         page_ms: times,
+        gl: gl.name(),
     })
 }
 
@@ -294,16 +283,19 @@ pub struct VideoReport {
     pub real_time: f64,
     /// The page's milliseconds a frame, as JSON (draw_ms, read_ms, send_ms, wait_ms).
     pub page_ms: String,
+    /// How Chromium drew WebGL (system OpenGL or SwiftShader).
+    pub gl: &'static str,
 }
 
 impl std::fmt::Display for VideoReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "video: {} frames in {:.1} s ({:.2}x real time): {}; the page's ms a frame: {}",
+            "video: {} frames in {:.1} s ({:.2}x real time, WebGL by {}): {}; the page's ms a frame: {}",
             self.frames,
             self.seconds,
             self.real_time,
+            self.gl,
             self.path.display(),
             self.page_ms
         )

@@ -53,7 +53,7 @@ impl Image {
 /// The Chromium binary: $CHROMIUM, else `chromium`, `chromium-browser` or `google-chrome` on
 /// the PATH (the lookup `drumsim video` uses).
 pub fn chromium() -> Option<PathBuf> {
-    drumsim::view::video::chromium()
+    drumsim::view::chromium::chromium()
 }
 
 impl Browser {
@@ -66,8 +66,6 @@ impl Browser {
             .args([
                 "--headless",
                 "--no-sandbox",
-                "--use-angle=swiftshader",
-                "--enable-unsafe-swiftshader",
                 "--disable-background-networking",
                 "--disable-component-update",
                 "--disable-sync",
@@ -78,6 +76,8 @@ impl Browser {
                 "--remote-debugging-port=0",
                 "--hide-scrollbars",
             ])
+            .args(drumsim::view::chromium::gl(binary).flags())
+            .args(std::env::var("DRUMSIM_TEST_CHROMIUM_FLAGS").unwrap_or_default().split_whitespace())
             .arg(format!("--user-data-dir={}", profile.display()))
             .arg(format!("--window-size={width},{height}"))
             .arg("about:blank")
