@@ -11,6 +11,12 @@
 //! ```
 //! Neither is a real-time thread of the sound: the sound stays immediate and never waits on
 //! them. A plan that fails is counted and the last good one stays on screen.
+//!
+//! With the live physical drummer (`--sound physical`) the avatar shows the body as it
+//! plays: there is no planner here, the poser takes the body planner's window plans (the
+//! same plans the body follows) and the body's own output (`BodyFeed`: the simulated hands
+//! at 60 fps, the hi-hat's openness, every contact), and it lights the pieces the sticks
+//! and beater really struck, at their contact times.
 
 use crate::kit::Kit;
 use crate::midi::live::LiveEvent;
@@ -21,13 +27,15 @@ use crate::motion::export::{y_up, y_up_rot, Baked};
 use crate::motion::hands::HandModel;
 use crate::motion::humanoid::Humanoid;
 use crate::motion::rig::Rig;
-use crate::motion::window::{shown_frame, WindowMotion, WindowPlan};
+use crate::motion::track::Pose;
+use crate::motion::window::{blend_pose, shown_frame, WindowMotion, WindowPlan};
 use crate::motion::{body_ik, pipeline, ARKIT_NAMES};
 use crate::view::live::LiveHub;
 use crate::vmc::packets::Encoder;
 use crate::vmc::sender::{Pacer, Sender};
 use crate::vmc::VmcOptions;
 use crossbeam_channel::{Receiver, RecvTimeoutError};
+use std::collections::VecDeque;
 use std::fmt::Write as _;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
 use std::sync::{Arc, Mutex};
@@ -52,6 +60,8 @@ pub struct AvatarOptions {
     /// Launch the desktop's browser on the page.
     pub open: bool,
     pub vmc: Option<VmcOptions>,
+    /// The live physical drummer plays (the page says so; the motion comes from the body).
+    pub physical: bool,
 }
 
 /// What the avatar threads count.
@@ -66,6 +76,36 @@ pub struct AvatarStats {
     pub late_frames: AtomicU64,
     pub vmc_datagrams: AtomicU64,
     pub vmc_failed: AtomicU64,
+    /// What the live physical body sent that the avatar's queue had no room for.
+    pub body_dropped: AtomicU64,
+}
+
+/// What the live physical body tells the avatar, session seconds.
+#[derive(Debug, Clone)]
+pub enum BodyFeed {
+    /// The simulated hands as grip poses (left, right), 60 a second.
+    Hands {
+        time_s: f64,
+        grips: [Pose; 2],
+    },
+    HiHat {
+        time_s: f64,
+        openness: f32,
+    },
+    /// A contact: the piece struck (its id) and the contact's speed.
+    Strike {
+        time_s: f64,
+        piece: String,
+        speed_mps: f32,
+    },
+}
+
+/// Where the avatar's motion comes from.
+pub enum Source {
+    /// The player's events, planned here on a sliding window (`--sound direct`).
+    Events(Receiver<LiveEvent>),
+    /// The live physical body: its planner's window plans and what it did.
+    Body { plans: Receiver<Arc<WindowPlan>>, feed: Receiver<BodyFeed> },
 }
 
 /// The running avatar.
@@ -110,7 +150,7 @@ pub fn prepare(kit: &Kit, map: &NoteMap, opts: &AvatarOptions) -> anyhow::Result
             let info = serde_json::json!({
                 "live": true,
                 "song": "live",
-                "sound": "direct",
+                "sound": if opts.physical { "physical" } else { "direct" },
                 "kit": kit.name,
                 "lookahead_ms": opts.lookahead_s * 1e3,
                 "bones": rig.bones.iter().map(|b| b.name.as_str()).collect::<Vec<_>>(),
@@ -134,60 +174,65 @@ pub fn prepare(kit: &Kit, map: &NoteMap, opts: &AvatarOptions) -> anyhow::Result
     Ok(Prepared { window, waiting, rig, kit: kit.clone(), lookahead_s: opts.lookahead_s, hub, url, vmc })
 }
 
-/// Start the avatar's threads: `events` are the player's events as they arrive (session
-/// clock from `epoch`).
-pub fn start(prepared: Prepared, events: Receiver<LiveEvent>, epoch: Instant) -> anyhow::Result<Avatar> {
+/// Start the avatar's threads on `source` (session clock from `epoch`).
+pub fn start(prepared: Prepared, source: Source, epoch: Instant) -> anyhow::Result<Avatar> {
     let Prepared { mut window, waiting, rig, kit, lookahead_s, hub, url, vmc } = prepared;
     let stats = Arc::new(AvatarStats::default());
     let stop = Arc::new(AtomicBool::new(false));
     let first_error = Arc::new(Mutex::new(None));
-    let (plan_tx, plan_rx) = crossbeam_channel::bounded::<Arc<WindowPlan>>(4);
     // The feet stay on their pedals, so the knees' turns for the drummer waiting hold.
     let knees = body_ik::knee_angles(&rig, &waiting.motion, &crate::motion::shells::shells(&kit));
-    let _ = plan_tx.try_send(Arc::new(waiting));
-    let planner = {
-        let (stop, stats, first_error) = (stop.clone(), stats.clone(), first_error.clone());
-        thread::Builder::new().name("drumsim-avatar-plan".into()).spawn(move || {
-            let mut last = Instant::now();
-            while !stop.load(Relaxed) {
-                match events.recv_timeout(PLAN_EVERY) {
-                    Ok(e) => window.push(e.event),
-                    Err(RecvTimeoutError::Timeout) => {}
-                    Err(RecvTimeoutError::Disconnected) => thread::sleep(PLAN_EVERY),
-                }
-                while let Ok(e) = events.try_recv() {
-                    window.push(e.event);
-                }
-                if last.elapsed() < PLAN_EVERY {
-                    continue;
-                }
-                last = Instant::now();
-                match window.plan(epoch.elapsed().as_secs_f64()) {
-                    Ok(p) => {
-                        let us = last.elapsed().as_micros() as u64;
-                        stats.plans.fetch_add(1, Relaxed);
-                        stats.plan_us_total.fetch_add(us, Relaxed);
-                        stats.plan_us_max.fetch_max(us, Relaxed);
-                        if plan_tx.send(Arc::new(p)).is_err() {
-                            return;
+    let waiting = Arc::new(waiting);
+    let mut threads = Vec::new();
+    let (plan_rx, body) = match source {
+        Source::Events(events) => {
+            let (plan_tx, plan_rx) = crossbeam_channel::bounded::<Arc<WindowPlan>>(4);
+            let (stop, stats, first_error) = (stop.clone(), stats.clone(), first_error.clone());
+            threads.push(thread::Builder::new().name("drumsim-avatar-plan".into()).spawn(move || {
+                let mut last = Instant::now();
+                while !stop.load(Relaxed) {
+                    match events.recv_timeout(PLAN_EVERY) {
+                        Ok(e) => window.push(e.event),
+                        Err(RecvTimeoutError::Timeout) => {}
+                        Err(RecvTimeoutError::Disconnected) => thread::sleep(PLAN_EVERY),
+                    }
+                    while let Ok(e) = events.try_recv() {
+                        window.push(e.event);
+                    }
+                    if last.elapsed() < PLAN_EVERY {
+                        continue;
+                    }
+                    last = Instant::now();
+                    match window.plan(epoch.elapsed().as_secs_f64()) {
+                        Ok(p) => {
+                            let us = last.elapsed().as_micros() as u64;
+                            stats.plans.fetch_add(1, Relaxed);
+                            stats.plan_us_total.fetch_add(us, Relaxed);
+                            stats.plan_us_max.fetch_max(us, Relaxed);
+                            if plan_tx.send(Arc::new(p)).is_err() {
+                                return;
+                            }
+                        }
+                        Err(e) => {
+                            stats.plan_errors.fetch_add(1, Relaxed);
+                            first_error.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e.to_string());
                         }
                     }
-                    Err(e) => {
-                        stats.plan_errors.fetch_add(1, Relaxed);
-                        first_error.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e.to_string());
-                    }
                 }
-            }
-        })?
+            })?);
+            (plan_rx, None)
+        }
+        Source::Body { plans, feed } => (plans, Some(feed)),
     };
     let poser = {
         let (stop, stats, hub) = (stop.clone(), stats.clone(), hub.clone());
         let poser = Poser::new(&kit, rig, lookahead_s, knees);
         thread::Builder::new()
             .name("drumsim-avatar-pose".into())
-            .spawn(move || poser.run(&plan_rx, epoch, &stop, &stats, hub.as_deref(), vmc))?
+            .spawn(move || poser.run(waiting, &plan_rx, body.as_ref(), epoch, &stop, &stats, hub.as_deref(), vmc))?
     };
-    Ok(Avatar { stop, threads: vec![planner, poser], stats, hub, url, first_error })
+    threads.push(poser);
+    Ok(Avatar { stop, threads, stats, hub, url, first_error })
 }
 
 impl Avatar {
@@ -218,6 +263,9 @@ impl Avatar {
                 hub.connections.load(Relaxed),
                 hub.dropped.load(Relaxed)
             );
+        }
+        if s.body_dropped.load(Relaxed) > 0 {
+            let _ = write!(text, "; {} of the body's messages dropped", s.body_dropped.load(Relaxed));
         }
         if s.vmc_datagrams.load(Relaxed) + s.vmc_failed.load(Relaxed) > 0 {
             let _ = write!(
@@ -255,9 +303,12 @@ impl Poser {
         Poser { rig, knees, kit: kit.clone(), moving, lookahead_s, beater_rest, face_index }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
+        waiting: Arc<WindowPlan>,
         plans: &Receiver<Arc<WindowPlan>>,
+        body: Option<&Receiver<BodyFeed>>,
         epoch: Instant,
         stop: &AtomicBool,
         stats: &AvatarStats,
@@ -265,7 +316,8 @@ impl Poser {
         mut vmc: Option<(Humanoid, Encoder, Sender)>,
     ) {
         let mut pacer = Pacer::new(RATE_HZ);
-        let (mut newest, mut before): (Option<Arc<WindowPlan>>, Option<Arc<WindowPlan>>) = (None, None);
+        // The drummer waiting until the first plan comes.
+        let (mut newest, mut before): (Option<Arc<WindowPlan>>, Option<Arc<WindowPlan>>) = (Some(waiting), None);
         let mut since = 0.0;
         let mut struck_until = f64::NEG_INFINITY;
         let mut lift_before = 0.0;
@@ -273,6 +325,7 @@ impl Poser {
         let mut unity = vmc.as_ref().map(|(h, _, _)| h.empty_pose());
         let mut text = String::with_capacity(4096);
         let mut carry = body_ik::Carry { knee: self.knees, ..Default::default() };
+        let mut played = Played::default();
         while !stop.load(Relaxed) {
             let Some((_, skipped)) = pacer.next_frame(u64::MAX) else { return };
             stats.late_frames.fetch_add(skipped, Relaxed);
@@ -283,7 +336,11 @@ impl Poser {
             }
             let Some(plan) = newest.as_deref() else { continue };
             let shown = now - self.lookahead_s;
-            let frame = shown_frame(plan, before.as_deref(), since, now, shown);
+            let mut frame = shown_frame(plan, before.as_deref(), since, now, shown);
+            if let Some(feed) = body {
+                played.take(feed, shown);
+                played.show(shown, &mut frame);
+            }
             let pose = body_ik::solve_after(&self.rig, &frame, &mut carry);
             if let (Some((humanoid, encoder, sender)), Some(unity)) = (vmc.as_mut(), unity.as_mut()) {
                 let world = self.rig.world(&pose);
@@ -336,20 +393,92 @@ impl Poser {
                 push_floats(&mut text, &frame.hands[1].stick_tip());
                 text.push_str("],\"strikes\":[");
                 let mut first = true;
-                // Each note once, when the shown moment reaches it (or at once when its plan
-                // came later than that, with a lookahead shorter than a plan takes).
-                for (at, piece, velocity) in plan.notes.iter().filter(|n| n.0 > struck_until && n.0 <= shown) {
-                    if !first {
-                        text.push(',');
+                if body.is_some() {
+                    // Each contact of the body once, when the shown moment reaches it.
+                    while let Some((at, piece, speed)) = played.strikes.front().filter(|c| c.0 <= shown) {
+                        if !first {
+                            text.push(',');
+                        }
+                        first = false;
+                        let velocity = self.kit.strike.velocity_for_speed(*speed).round();
+                        let _ = write!(text, "{{\"piece\":{piece:?},\"at\":{at:.4},\"velocity\":{velocity}}}");
+                        played.strikes.pop_front();
                     }
-                    first = false;
-                    let _ = write!(text, "{{\"piece\":{piece:?},\"at\":{at:.4},\"velocity\":{velocity}}}");
+                } else {
+                    // Each note once, when the shown moment reaches it (or at once when its
+                    // plan came later than that, with a lookahead shorter than a plan takes).
+                    for (at, piece, velocity) in plan.notes.iter().filter(|n| n.0 > struck_until && n.0 <= shown) {
+                        if !first {
+                            text.push(',');
+                        }
+                        first = false;
+                        let _ = write!(text, "{{\"piece\":{piece:?},\"at\":{at:.4},\"velocity\":{velocity}}}");
+                    }
+                    struck_until = plan.notes.iter().map(|n| n.0).filter(|&t| t <= shown).fold(struck_until, f64::max);
                 }
                 text.push_str("]}");
-                struck_until = plan.notes.iter().map(|n| n.0).filter(|&t| t <= shown).fold(struck_until, f64::max);
                 hub.broadcast(Arc::from(text.as_str()));
             }
             stats.frames.fetch_add(1, Relaxed);
+        }
+    }
+}
+
+/// What the live physical body did, kept for the frames still to be shown.
+#[derive(Default)]
+struct Played {
+    /// The simulated grips, in time order.
+    hands: VecDeque<(f64, [Pose; 2])>,
+    /// The hi-hat's openness where it changed, in time order.
+    hihat: VecDeque<(f64, f32)>,
+    /// Contacts not shown yet: time, piece, speed.
+    strikes: VecDeque<(f64, String, f32)>,
+}
+
+/// How far back the body's grips are kept, s.
+const KEEP_S: f64 = 0.5;
+
+impl Played {
+    /// Take what the body sent since the last frame; forget what is older than needed.
+    fn take(&mut self, feed: &Receiver<BodyFeed>, shown: f64) {
+        while let Ok(f) = feed.try_recv() {
+            match f {
+                BodyFeed::Hands { time_s, grips } => self.hands.push_back((time_s, grips)),
+                BodyFeed::HiHat { time_s, openness } => self.hihat.push_back((time_s, openness)),
+                BodyFeed::Strike { time_s, piece, speed_mps } => self.strikes.push_back((time_s, piece, speed_mps)),
+            }
+        }
+        while self.hands.len() > 2 && self.hands[1].0 < shown - KEEP_S {
+            self.hands.pop_front();
+        }
+        while self.hihat.len() > 1 && self.hihat[1].0 <= shown {
+            self.hihat.pop_front();
+        }
+        // A contact the page will never be shown (the body ran far ahead, or the clock
+        // jumped) goes after a second.
+        while self.strikes.front().is_some_and(|c| c.0 < shown - 1.0) {
+            self.strikes.pop_front();
+        }
+    }
+
+    /// The body's hands and hi-hat at session time `t` in `frame` (between the two grips
+    /// around it; the plan's where the body has none within 50 ms).
+    fn show(&self, t: f64, frame: &mut crate::motion::MotionFrame) {
+        let after = self.hands.iter().position(|h| h.0 > t);
+        let grips = match after {
+            Some(0) => Some(self.hands[0]).filter(|h| h.0 - t < 0.05).map(|h| h.1),
+            Some(j) => {
+                let (a, b) = (&self.hands[j - 1], &self.hands[j]);
+                let w = ((t - a.0) / (b.0 - a.0).max(1e-9)).clamp(0.0, 1.0) as f32;
+                Some([0, 1].map(|s| blend_pose(&a.1[s], &b.1[s], w)))
+            }
+            None => self.hands.back().filter(|h| t - h.0 < 0.05).map(|h| h.1),
+        };
+        if let Some(g) = grips {
+            frame.hands = g;
+        }
+        if let Some(&(_, o)) = self.hihat.front().filter(|h| h.0 <= t) {
+            frame.hihat_openness = o;
         }
     }
 }

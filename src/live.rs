@@ -102,6 +102,8 @@ fn list(names: &[String]) -> String {
 const MIDI_QUEUE: usize = 1024;
 const PACKET_QUEUE: usize = 1024;
 const SOUND_RING: usize = 1024;
+/// What the live physical body sends its avatar (hands at 60 a second, the hi-hat, contacts).
+const AVATAR_FEED: usize = 1024;
 /// How often the main thread looks at the MIDI port.
 const PORT_CHECK: Duration = Duration::from_secs(1);
 
@@ -141,12 +143,20 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
 
     let epoch = Instant::now();
     let counters = Arc::new(Counters::default());
-    let (avatar_tx, avatar) = match prepared {
+    // The avatar plans from the player's events; with the physical drummer it shows the body.
+    let (avatar_tx, avatar, show) = match prepared {
+        Some(p) if opts.physical => {
+            let (plans_tx, plans_rx) = crossbeam_channel::bounded(4);
+            let (feed_tx, feed_rx) = crossbeam_channel::bounded(AVATAR_FEED);
+            let a = crate::avatar::start(p, crate::avatar::Source::Body { plans: plans_rx, feed: feed_rx }, epoch)?;
+            let show = crate::live_body::ShowTo { plans: plans_tx, feed: feed_tx, stats: a.stats.clone() };
+            (None, Some(a), Some(show))
+        }
         Some(p) => {
             let (tx, rx) = crossbeam_channel::bounded(MIDI_QUEUE);
-            (Some(tx), Some(crate::avatar::start(p, rx, epoch)?))
+            (Some(tx), Some(crate::avatar::start(p, crate::avatar::Source::Events(rx), epoch)?), None)
         }
-        None => (None, None),
+        None => (None, None, None),
     };
     let (event_tx, event_rx) = crossbeam_channel::bounded(MIDI_QUEUE);
     let (out, feeder) = match (&audio, opts.sound_to) {
@@ -182,7 +192,7 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
                 }
             };
             let lookahead_s = f64::from(opts.lookahead_ms) / 1e3;
-            let body = crate::live_body::start(prepared, events_rx, messages_rx, epoch, lookahead_s, send)?;
+            let body = crate::live_body::start(prepared, events_rx, messages_rx, epoch, lookahead_s, show, send)?;
             (Route::Physical { events: events_tx, messages: messages_tx }, Some(body))
         }
     };

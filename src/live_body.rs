@@ -15,6 +15,10 @@
 //! ```
 //! The body plays each note at the note's session time, and its sound is placed
 //! `lookahead` later: the drummer plays `--lookahead-ms` behind the player, sample-accurately.
+//!
+//! With an avatar (`--view`, `--vmc`), the planner also hands each window plan to the
+//! avatar's poser, the body sends its hands at 60 fps, and the out thread passes the hands,
+//! the hi-hat and every contact on to the poser (`avatar::BodyFeed`, bounded, try_send).
 
 use crate::body::sim::{Drummer, DrummerSettings};
 use crate::interaction::Message;
@@ -23,7 +27,7 @@ use crate::midi::live::LiveEvent;
 use crate::midi::NoteMap;
 use crate::motion::hands::HandModel;
 use crate::motion::pipeline;
-use crate::motion::window::WindowMotion;
+use crate::motion::window::{WindowMotion, WindowPlan};
 use crate::perform::conductor::{Conductor, TargetShape};
 use crate::perform::paced::{self, BodyOut, BodyPlanner, PacedClock, PacedStats, Spent};
 use crossbeam_channel::{Receiver, RecvTimeoutError};
@@ -100,6 +104,13 @@ pub fn prepare(kit: &Kit, map: &NoteMap, lookahead_s: f64) -> anyhow::Result<Pre
     Ok(Prepared { window, planner, surfaces, kit: kit.clone(), settings, first, t0 })
 }
 
+/// Where an avatar takes the body's plans and what it did.
+pub struct ShowTo {
+    pub plans: crossbeam_channel::Sender<Arc<WindowPlan>>,
+    pub feed: crossbeam_channel::Sender<crate::avatar::BodyFeed>,
+    pub stats: Arc<crate::avatar::AvatarStats>,
+}
+
 /// The running drummer.
 pub struct LiveBody {
     stop: Arc<AtomicBool>,
@@ -111,13 +122,15 @@ pub struct LiveBody {
 
 /// Start the drummer: `events` are the player's events as they arrive (session clock from
 /// `epoch`), `messages` what the interaction thread sends besides (chokes); every message is
-/// handed to `send` (false: the sound had no room for it).
+/// handed to `send` (false: the sound had no room for it); `show`: an avatar to show the body.
+#[allow(clippy::too_many_arguments)]
 pub fn start(
     prepared: Prepared,
     events: Receiver<LiveEvent>,
     messages: Receiver<Message>,
     epoch: Instant,
     lookahead_s: f64,
+    show: Option<ShowTo>,
     mut send: impl FnMut(&Message) -> bool + Send + 'static,
 ) -> anyhow::Result<LiveBody> {
     let Prepared { mut window, planner, surfaces, kit, settings, first, t0 } = prepared;
@@ -128,6 +141,11 @@ pub fn start(
     let (plan_tx, plan_rx) = crossbeam_channel::bounded(1);
     let (spent_tx, spent_rx) = crossbeam_channel::bounded::<Spent>(4);
     let (out_tx, out_rx) = crossbeam_channel::bounded::<BodyOut>(4096);
+    let hands = show.is_some();
+    let (show_plans, show_feed) = match show {
+        Some(s) => (Some(s.plans), Some((s.feed, s.stats))),
+        None => (None, None),
+    };
     let planning = {
         let (stop, stats, first_error) = (stop.clone(), plans.clone(), first_error.clone());
         let taken_back = plan_rx.clone();
@@ -171,6 +189,11 @@ pub fn start(
                     }
                 }
                 newest_note = w.notes.iter().map(|n| n.0).fold(newest_note, f64::max);
+                if let Some(to) = &show_plans {
+                    // The poser takes plans promptly; a full queue only loses a plan the
+                    // next one replaces.
+                    let _ = to.try_send(Arc::new(w));
+                }
                 // The body takes the newest plan: one it has not taken yet is replaced.
                 if let Err(crossbeam_channel::TrySendError::Full(plan)) = plan_tx.try_send(plan) {
                     if taken_back.try_recv().is_ok() {
@@ -186,7 +209,7 @@ pub fn start(
         thread::Builder::new().name("drumsim-body".into()).spawn(move || {
             crate::rt_alloc::RtPool::enter(paced::POOL_BYTES);
             match Conductor::live(&kit, settings, first.targets, first.pedals, t0) {
-                Ok(c) => paced::run(c, clock, &plan_rx, &spent_tx, &out_tx, &stats, &stop),
+                Ok(c) => paced::run(c, clock, hands, &plan_rx, &spent_tx, &out_tx, &stats, &stop),
                 Err(e) => eprintln!("drumsim live: the body could not be built: {e}"),
             }
         })?
@@ -194,6 +217,14 @@ pub fn start(
     let out = {
         let (stop, stats) = (stop.clone(), plans.clone());
         thread::Builder::new().name("drumsim-body-out".into()).spawn(move || {
+            use crate::avatar::BodyFeed;
+            let to_avatar = |f: BodyFeed| {
+                if let Some((feed, stats)) = &show_feed {
+                    if feed.try_send(f).is_err() {
+                        stats.body_dropped.fetch_add(1, Relaxed);
+                    }
+                }
+            };
             let mut forward = |msg: &Message| {
                 stats.messages.fetch_add(1, Relaxed);
                 if !send(msg) {
@@ -207,10 +238,19 @@ pub fn start(
                 while let Ok(o) = out_rx.try_recv() {
                     idle = false;
                     match o {
-                        BodyOut::Strike(s) => forward(&Message::Contact(s.message_named(&surfaces[s.surface]))),
-                        BodyOut::HiHat { time_s, openness } => {
-                            forward(&Message::HiHat { time_s: time_s as f32, openness })
+                        BodyOut::Strike(s) => {
+                            let piece = &surfaces[s.surface];
+                            forward(&Message::Contact(s.message_named(piece)));
+                            if show_feed.is_some() {
+                                let (time_s, piece, speed_mps) = (s.time_s, piece.clone(), s.speed_mps);
+                                to_avatar(BodyFeed::Strike { time_s, piece, speed_mps });
+                            }
                         }
+                        BodyOut::HiHat { time_s, openness } => {
+                            forward(&Message::HiHat { time_s: time_s as f32, openness });
+                            to_avatar(BodyFeed::HiHat { time_s, openness });
+                        }
+                        BodyOut::Hands { time_s, grips } => to_avatar(BodyFeed::Hands { time_s, grips }),
                     }
                 }
                 while let Ok(m) = messages.try_recv() {

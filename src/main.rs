@@ -449,14 +449,6 @@ fn exit_code(err: &anyhow::Error) -> u8 {
     }
 }
 
-fn physical_not_built() -> anyhow::Error {
-    anyhow::Error::new(drumsim::render::RenderInputError::Unsupported(
-        "live --sound physical with --view or --vmc is not built yet (the avatar follows the planned motion \
-         in --sound direct); use one or the other"
-            .into(),
-    ))
-}
-
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::View { render, port, open } => Ok(drumsim::view::run(&render, port, open)?),
@@ -572,10 +564,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let physical = matches!(sound, SoundMode::Physical);
             let vmc = vmc.options(None)?;
             let shown = view || vmc.is_some();
-            if physical && shown {
-                return Err(physical_not_built());
-            }
-            let avatar_ms = lookahead_ms.unwrap_or(drumsim::avatar::DEFAULT_LOOKAHEAD_MS);
+            // The physical drummer's avatar shows the body, which plays `lookahead` behind.
+            let avatar_ms = match physical {
+                true => lookahead_ms.unwrap_or(drumsim::live_body::DEFAULT_LOOKAHEAD_MS),
+                false => lookahead_ms.unwrap_or(drumsim::avatar::DEFAULT_LOOKAHEAD_MS),
+            };
             if shown && !(0.0..=1000.0).contains(&avatar_ms) {
                 return Err(drumsim::live::LiveInputError::Lookahead(avatar_ms).into());
             }
@@ -584,6 +577,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 view_port: view.then_some(port),
                 open,
                 vmc,
+                physical,
             });
             let sound_to = sound_to.map(|s| drumsim::interaction::remote::udp_address("--sound-to", &s)).transpose()?;
             let sound_ms = match (sound_to, shown) {

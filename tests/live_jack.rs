@@ -130,6 +130,17 @@ const LOOKAHEAD_S: f64 = 0.25;
 
 #[test]
 fn the_live_avatar_strikes_each_note_lookahead_after_it_was_played() {
+    avatar_session(false);
+}
+
+/// With `--sound physical` the avatar shows the body: its simulated sticks, and the pieces
+/// it really struck, each at its contact.
+#[test]
+fn the_live_physical_drummer_is_shown_as_it_plays() {
+    avatar_session(true);
+}
+
+fn avatar_session(physical: bool) {
     let _turn = one_at_a_time();
     let Some(chrome) = browser::chromium() else {
         assert!(
@@ -139,7 +150,11 @@ fn the_live_avatar_strikes_each_note_lookahead_after_it_was_played() {
         println!("no chromium on this machine (scripts/setup-debian.sh installs it): skipping");
         return;
     };
-    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("live-avatar");
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(if physical {
+        "live-avatar-physical"
+    } else {
+        "live-avatar"
+    });
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let server = JackServer::start();
@@ -170,6 +185,9 @@ fn the_live_avatar_strikes_each_note_lookahead_after_it_was_played() {
     let vmc_target = receiver.as_ref().map(|(_, port, _)| format!("127.0.0.1:{port}"));
     let mut args = vec!["--midi", "drumsim-avatar:midi_out", "--audio", "jack", "--map", "gm", "--duration-s", "30"];
     args.extend(["--view", "--lookahead-ms", "250"]);
+    if physical {
+        args.extend(["--sound", "physical"]);
+    }
     if let Some(t) = &vmc_target {
         args.extend(["--vmc", t.as_str()]);
     }
@@ -236,7 +254,28 @@ fn the_live_avatar_strikes_each_note_lookahead_after_it_was_played() {
             ));
         }
     }
-    assert_eq!(strikes.len(), played.len(), "strikes shown {strikes:?}");
+    if physical {
+        // The body's contacts: each note's piece struck, in the order played (a stray
+        // contact or two of a stick settling may come between).
+        let mut at = 0;
+        for note in &played {
+            let piece = match note {
+                38 => "snare",
+                48 => "tom1",
+                45 => "tom2",
+                42 => "hihat",
+                _ => "kick",
+            };
+            let found = strikes[at..].iter().position(|s| s.0 == piece);
+            assert!(found.is_some_and(|k| k <= 1), "note {note} ({piece}) not struck next: {:?}", &strikes[at..]);
+            at += found.unwrap() + 1;
+        }
+        let stray = strikes.len() - played.len();
+        println!("{} contacts shown for {} notes", strikes.len(), played.len());
+        assert!(stray <= 2, "{stray} contacts besides the notes: {strikes:?}");
+    } else {
+        assert_eq!(strikes.len(), played.len(), "strikes shown {strikes:?}");
+    }
     let (mut worst_late, mut worst_tip, mut worst_offset) = (0.0f64, 0.0f64, 0.0f64);
     for (piece, at, t) in &strikes {
         let late = t - at - LOOKAHEAD_S;

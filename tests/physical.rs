@@ -209,12 +209,14 @@ fn a_kit_without_pedals_plays_the_hands_and_says_so_and_live_physical_with_an_av
         serde_json::from_slice(&std::fs::read(out.join("demo.contacts.json")).unwrap()).unwrap();
     let contacts = json["contacts"].as_array().unwrap();
     assert!(!contacts.is_empty() && contacts.iter().all(|c| c["limb"].as_i64().unwrap() <= 1));
-    // The live physical drummer shown on the page or over VMC is not built yet: refused before
-    // any device is opened.
-    let r =
-        Command::new(env!("CARGO_BIN_EXE_drumsim")).args(["live", "--sound", "physical", "--view"]).output().unwrap();
-    assert_eq!(r.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&r.stderr).contains("with --view or --vmc is not built yet"));
+    // The live physical drummer shown on the page with an impossible lookahead: refused
+    // before any device is opened, naming the option.
+    let r = Command::new(env!("CARGO_BIN_EXE_drumsim"))
+        .args(["live", "--sound", "physical", "--view", "--lookahead-ms", "5000"])
+        .output()
+        .unwrap();
+    assert_eq!(r.status.code(), Some(2), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("lookahead"), "{}", String::from_utf8_lossy(&r.stderr));
 }
 
 /// The rehearsal's premise: a snapshot of the body plays on exactly as the original did, so

@@ -21,7 +21,7 @@ fn the_live_body_never_calls_the_system_allocator_in_steady_state() {
     use drumsim::motion::pipeline::shipped_library;
     use drumsim::motion::window::WindowMotion;
     use drumsim::perform::conductor::{Conductor, TargetShape};
-    use drumsim::perform::paced::{play_period, take_plans, BodyPlanner, HiHatOut, PacedStats};
+    use drumsim::perform::paced::{play_period, take_plans, BodyPlanner, FrameOut, PacedStats};
     use std::sync::atomic::Ordering::Relaxed;
 
     let kit = Kit::builtin_default();
@@ -40,7 +40,7 @@ fn the_live_body_never_calls_the_system_allocator_in_steady_state() {
     let (spent_tx, spent_rx) = crossbeam_channel::bounded(4);
     let (out_tx, out_rx) = crossbeam_channel::bounded(4096);
     let stats = PacedStats::default();
-    let mut hihat = HiHatOut::new(c.time_s());
+    let mut hihat = FrameOut::new(c.time_s(), true);
     let mut events = perf.events.iter().peekable();
     let mut next_plan = 0.05;
     let (mut watched, mut contacts, mut system_calls) = (0u64, 0usize, 0u64);

@@ -96,6 +96,14 @@ impl StrikeSettings {
         let v = (velocity.clamp(1, 127) as f32) / 127.0;
         self.speed_min_mps + (self.speed_max_mps - self.speed_min_mps) * v.powf(self.velocity_exponent)
     }
+
+    /// The MIDI velocity (1..=127, fractional) whose striking speed is `speed_mps`: the
+    /// inverse of [`Self::speed_for_velocity`], clamped to its range.
+    pub fn velocity_for_speed(&self, speed_mps: f32) -> f32 {
+        let span = (self.speed_max_mps - self.speed_min_mps).max(1e-6);
+        let x = ((speed_mps - self.speed_min_mps) / span).clamp(0.0, 1.0);
+        (127.0 * x.powf(1.0 / self.velocity_exponent.max(1e-3))).clamp(1.0, 127.0)
+    }
 }
 
 /// Where the pedals are (the `[pedals]` table of a kit file).

@@ -76,7 +76,8 @@ fn lerp3(a: [f32; 3], b: [f32; 3], w: f32) -> [f32; 3] {
     std::array::from_fn(|k| a[k] + (b[k] - a[k]) * w)
 }
 
-fn blend_pose(a: &Pose, b: &Pose, w: f32) -> Pose {
+/// `a` moved `w` (0..1) of the way to `b` (positions linear, rotations slerped).
+pub fn blend_pose(a: &Pose, b: &Pose, w: f32) -> Pose {
     let rot = a.rotation().slerp(&b.rotation(), w);
     Pose { pos: lerp3(a.pos, b.pos, w), rot: [rot.w, rot.i, rot.j, rot.k] }
 }

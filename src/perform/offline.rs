@@ -181,8 +181,8 @@ pub fn play_as(
 /// Snapshots reach this far back: a stroke's longest preparation and the time to judge it.
 const HISTORY_S: f64 = 0.35;
 
-/// The simulated hands as the motion's grip poses.
-fn grip_poses(d: &Drummer) -> [Pose; 2] {
+/// The simulated hands as the motion's grip poses (no allocation).
+pub(crate) fn grip_poses(d: &Drummer) -> [Pose; 2] {
     let pose = d.sim_pose();
     let along = Rotation::from_rotation_arc(Vector::Y, d.skel.stick.dir);
     [0, 1].map(|side| {

@@ -27,6 +27,7 @@ use crate::body::pedals::PedalBodies;
 use crate::body::strokes::TASK_HZ;
 use crate::kit::Kit;
 use crate::midi::NoteMap;
+use crate::motion::track::Pose;
 use crate::motion::window::WindowPlan;
 use crossbeam_channel::{Receiver, Sender};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
@@ -81,7 +82,16 @@ impl BodyPlanner {
 #[derive(Debug, Clone, Copy)]
 pub enum BodyOut {
     Strike(Strike),
-    HiHat { time_s: f64, openness: f32 },
+    HiHat {
+        time_s: f64,
+        openness: f32,
+    },
+    /// The simulated hands as the motion's grip poses (left, right), at 60 fps, for the
+    /// avatar.
+    Hands {
+        time_s: f64,
+        grips: [Pose; 2],
+    },
 }
 
 /// What the physics thread counts.
@@ -156,10 +166,13 @@ impl PacedClock {
     }
 }
 
-/// The physics thread: periods as they fall due, until `stop`.
+/// The physics thread: periods as they fall due, until `stop`; `hands`: send the simulated
+/// hands at 60 fps too.
+#[allow(clippy::too_many_arguments)]
 pub fn run(
     mut c: Conductor,
     clock: PacedClock,
+    hands: bool,
     plans: &Receiver<BodyPlan>,
     spent: &Sender<Spent>,
     out: &Sender<BodyOut>,
@@ -167,7 +180,7 @@ pub fn run(
     stop: &AtomicBool,
 ) {
     let period = 1.0 / TASK_HZ;
-    let mut hihat = HiHatOut::new(c.time_s());
+    let mut hihat = FrameOut::new(c.time_s(), hands);
     crate::rt_alloc::RtPool::enter(POOL_BYTES);
     let mut baseline: Option<u64> = None;
     while !stop.load(Relaxed) {
@@ -194,7 +207,7 @@ pub fn run(
             let behind = ((clock.body_time(now) - c.time_s()) / period).floor().max(0.0);
             c.skip_periods(behind as usize);
             stats.dropped_periods.fetch_add(behind as u64, Relaxed);
-            hihat = HiHatOut::new(c.time_s());
+            hihat = FrameOut::new(c.time_s(), hands);
             continue;
         }
         let started = Instant::now();
@@ -221,22 +234,24 @@ pub fn take_plans(c: &mut Conductor, plans: &Receiver<BodyPlan>, spent: &Sender<
     }
 }
 
-/// Where the hi-hat's openness stands in what was sent.
-pub struct HiHatOut {
+/// What goes out at 60 fps: where the hi-hat's openness stands in what was sent, and
+/// whether the hands go out too (for an avatar).
+pub struct FrameOut {
     last: f32,
     /// The next 60 fps frame to look at.
     frame: f64,
+    hands: bool,
 }
 
-impl HiHatOut {
-    pub fn new(t: f64) -> HiHatOut {
-        HiHatOut { last: f32::NAN, frame: (t * 60.0).ceil() }
+impl FrameOut {
+    pub fn new(t: f64, hands: bool) -> FrameOut {
+        FrameOut { last: f32::NAN, frame: (t * 60.0).ceil(), hands }
     }
 }
 
-/// One task period: the body's contacts, and the hi-hat's openness at 60 fps where it moved,
-/// to `out`.
-pub fn play_period(c: &mut Conductor, hihat: &mut HiHatOut, out: &Sender<BodyOut>, stats: &PacedStats) {
+/// One task period: the body's contacts, and at 60 fps the hi-hat's openness where it moved
+/// (and the hands, when an avatar shows them), to `out`.
+pub fn play_period(c: &mut Conductor, hihat: &mut FrameOut, out: &Sender<BodyOut>, stats: &PacedStats) {
     c.period(&mut |s| {
         stats.strikes.fetch_add(1, Relaxed);
         if out.try_send(BodyOut::Strike(s)).is_err() {
@@ -244,6 +259,12 @@ pub fn play_period(c: &mut Conductor, hihat: &mut HiHatOut, out: &Sender<BodyOut
         }
     });
     while hihat.frame / 60.0 <= c.time_s() {
+        if hihat.hands {
+            let grips = super::offline::grip_poses(c.drummer());
+            if out.try_send(BodyOut::Hands { time_s: hihat.frame / 60.0, grips }).is_err() {
+                stats.out_full.fetch_add(1, Relaxed);
+            }
+        }
         if let Some(o) = c.pedals().map(|p| p.hihat_openness()) {
             if hihat.last.is_nan() || (o - hihat.last).abs() >= HIHAT_STEP {
                 hihat.last = o;
