@@ -4,7 +4,8 @@
 //! (no rehearsal, as live must), (c) live: planned on the sliding window every 50 ms and
 //! played as `drumsim live --sound physical` would (`perform::replay`).
 //!
-//! `cargo run --release --example live_physical [TAKE.mid ...] [--seconds S] [--lookahead-ms N]`
+//! `cargo run --release --example live_physical [TAKE.mid ...] [--seconds S] [--lookahead-ms N]
+//! [--live-only]` (`DRUMSIM_LAG=off` or `=FILE`: live play without the lag model, or with another)
 //! (default: six validation takes, the first 30 s of each).
 
 use drumsim::interaction::ContactMessage;
@@ -46,6 +47,7 @@ fn main() -> anyhow::Result<()> {
     let mut lookahead_ms = f64::from(drumsim::live_body::DEFAULT_LOOKAHEAD_MS);
     let mut takes: Vec<String> = Vec::new();
     let mut verbose = false;
+    let mut live_only = false;
     let mut plan_every_ms = 50.0;
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -53,6 +55,7 @@ fn main() -> anyhow::Result<()> {
             "--seconds" => seconds = it.next().unwrap().parse()?,
             "--lookahead-ms" => lookahead_ms = it.next().unwrap().parse()?,
             "--verbose" => verbose = true,
+            "--live-only" => live_only = true,
             "--plan-every-ms" => plan_every_ms = it.next().unwrap().parse()?,
             t => takes.push(t.to_string()),
         }
@@ -74,9 +77,14 @@ fn main() -> anyhow::Result<()> {
         let notes: Vec<Onset> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < end - 0.1).collect();
         let predicted = model_hands(&HandModel::shipped(), &perf, &map);
         let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library()?)?;
-        let rehearsed = play_with(&kit, &perf, &map, &planned, end, &RehearsalSettings::default())?;
-        let straight =
-            play_with(&kit, &perf, &map, &planned, end, &RehearsalSettings { attempts: 0, ..Default::default() })?;
+        let (rehearsed, straight) = match live_only {
+            true => (vec![], vec![]),
+            false => (
+                play_with(&kit, &perf, &map, &planned, end, &RehearsalSettings::default())?.messages,
+                play_with(&kit, &perf, &map, &planned, end, &RehearsalSettings { attempts: 0, ..Default::default() })?
+                    .messages,
+            ),
+        };
         let live = replay(&kit, &map, HandModel::shipped(), shipped_library()?, &perf, end, &settings)?;
         let live_msgs: Vec<ContactMessage> = live
             .strikes
@@ -85,13 +93,10 @@ fn main() -> anyhow::Result<()> {
             .map(|s| s.message_named(&live.surfaces[s.surface]))
             .collect();
         println!("{take} ({} notes, {end:.0} s):", notes.len());
-        for (k, (name, msgs)) in [
-            ("offline, rehearsed", &rehearsed.messages),
-            ("offline, straight", &straight.messages),
-            ("live", &live_msgs),
-        ]
-        .into_iter()
-        .enumerate()
+        for (k, (name, msgs)) in
+            [("offline, rehearsed", &rehearsed), ("offline, straight", &straight), ("live", &live_msgs)]
+                .into_iter()
+                .enumerate()
         {
             let (r, p, m, sd, missed, spurious) = score(&notes, msgs);
             println!(

@@ -12,11 +12,14 @@
 //! - `offline.rs`: a whole song, its contacts as contact messages, the simulated tips.
 //! - `rehearsal.rs`: the offline correction: each note's contact judged, a stroke that fell
 //!   off its note played again from a snapshot with corrected targets.
+//! - `lag.rs`: the live body's lag model (how late a stroke lands, by piece, velocity and
+//!   the time since the hand's previous note), learned offline, aimed against live.
 //! - `matching.rs`: which note each contact played (bookkeeping for files and reports; the
 //!   sound never reads it).
 
 pub mod conductor;
 pub mod feet;
+pub mod lag;
 pub mod matching;
 pub mod offline;
 pub mod paced;

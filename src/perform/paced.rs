@@ -21,6 +21,7 @@
 
 use super::conductor::{Conductor, TargetShape};
 use super::feet::PedalTargets;
+use super::lag::LagModel;
 use super::targets::TipTargets;
 use crate::body::contacts::Strike;
 use crate::body::pedals::PedalBodies;
@@ -61,15 +62,43 @@ pub struct BodyPlanner {
     kit: Kit,
     map: NoteMap,
     bodies: Option<PedalBodies>,
+    lag: Option<LagModel>,
 }
 
 impl BodyPlanner {
+    /// A planner whose strokes are aimed against the shipped lag model ([`super::lag`]);
+    /// for measurements, `DRUMSIM_LAG=off` aims them at the notes and `DRUMSIM_LAG=FILE`
+    /// against another model (one that cannot be read is said and the shipped one used).
     pub fn new(shape: TargetShape, kit: &Kit, map: &NoteMap) -> BodyPlanner {
-        BodyPlanner { shape, kit: kit.clone(), map: map.clone(), bodies: PedalBodies::new(kit) }
+        let lag = match std::env::var("DRUMSIM_LAG").as_deref() {
+            Ok("off") => None,
+            Ok(path) => match crate::files::read_to_string_bounded(std::path::Path::new(path), 4 << 20)
+                .map_err(|e| e.to_string())
+                .and_then(|text| serde_json::from_str(&text).map_err(|e| e.to_string()))
+            {
+                Ok(model) => Some(model),
+                Err(e) => {
+                    eprintln!("drumsim: DRUMSIM_LAG={path}: {e}; using the shipped lag model");
+                    Some(LagModel::shipped())
+                }
+            },
+            Err(_) => Some(LagModel::shipped()),
+        };
+        BodyPlanner { shape, kit: kit.clone(), map: map.clone(), bodies: PedalBodies::new(kit), lag }
+    }
+
+    /// The same planner with strokes aimed against `lag`, or not at all.
+    pub fn with_lag(self, lag: Option<LagModel>) -> BodyPlanner {
+        BodyPlanner { lag, ..self }
     }
 
     pub fn plan(&self, w: &WindowPlan) -> BodyPlan {
-        let targets = self.shape.targets(&w.hands);
+        let targets = match &self.lag {
+            Some(lag) => self
+                .shape
+                .targets(&w.hands.aimed(|n, since| lag.lag_s(&self.kit.pieces[n.piece].id, n.velocity, since))),
+            None => self.shape.targets(&w.hands),
+        };
         let pedals = self
             .bodies
             .as_ref()

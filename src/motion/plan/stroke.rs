@@ -145,6 +145,26 @@ impl PlannedHands {
         self
     }
 
+    /// The same plan with each note's stroke aimed `lag(note, since)` seconds earlier, where
+    /// `since` is the time since the same hand's previous note (infinite for its first): a
+    /// stroke known to land late is aimed earlier. The offsets onto the strike points are
+    /// taken anew at the moved times, and each hand's notes stay in time order.
+    pub fn aimed(&self, lag: impl Fn(&HandNote, f64) -> f64) -> PlannedHands {
+        let mut out = self.clone();
+        for (hand, notes) in out.notes.iter_mut().enumerate() {
+            let (mut before, mut placed) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+            for (n, offset) in notes.iter_mut() {
+                let since = n.time_s - before;
+                before = n.time_s;
+                let t = (n.time_s - lag(n, since)).max(placed + 1e-4);
+                n.time_s = t;
+                *offset = sub(n.point, predicted_pose(&self.predicted, self.fps, hand, t - self.origin_s).stick_tip());
+                placed = t;
+            }
+        }
+        out
+    }
+
     /// The same plan with other stroke settings (the offsets onto the strike points stay).
     pub fn with_settings(&self, settings: StrokeSettings) -> PlannedHands {
         PlannedHands { settings, ..self.clone() }
@@ -354,6 +374,29 @@ mod tests {
                 sub(tip, n.point).iter().all(|d| d.abs() < 1e-3)
             });
             assert!(ok, "note at {} s", n.time_s);
+        }
+    }
+
+    #[test]
+    fn an_aimed_plan_puts_each_tip_on_its_strike_point_at_the_moved_time() {
+        let notes: Vec<_> = (0..20)
+            .map(|k| note(0.5 + k as f64 * 0.137, if k % 3 == 0 { 0.25 } else { -0.15 }, 40 + 4 * k as u8))
+            .collect();
+        let plan = planned(&notes);
+        // Loud strokes land 5 ms late, soft ones 3 ms early: aim them 5 ms earlier, 3 later.
+        let lag = |n: &HandNote| if n.velocity >= 60 { 0.005 } else { -0.003 };
+        let aimed = plan.aimed(|n, since| {
+            assert!(since > 0.1, "since {since}");
+            lag(n)
+        });
+        for h in 0..2 {
+            let times: Vec<f64> = aimed.notes(h).map(|n| n.time_s).collect();
+            assert!(times.windows(2).all(|w| w[0] < w[1]));
+            for (before, after) in plan.notes(h).zip(aimed.notes(h)) {
+                assert!((after.time_s - (before.time_s - lag(before))).abs() < 1e-12);
+                let tip = aimed.tip(h, after.time_s);
+                assert!(sub(tip, before.point).iter().all(|d| d.abs() < 1e-4), "{tip:?} vs {:?}", before.point);
+            }
         }
     }
 
