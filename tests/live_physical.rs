@@ -237,3 +237,117 @@ fn the_live_physical_drummer_sounds_through_its_own_audio_output() {
         "each about the lookahead after its note: {heard:.1?}"
     );
 }
+
+/// A broken controller floods drumsim with thousands of notes a second: the flood is
+/// counted, the body keeps its pace, and the notes played after it are struck as usual.
+#[test]
+fn a_note_flood_is_counted_and_the_drummer_plays_on() {
+    let _turn = one_at_a_time();
+    let jack = JackServer::start();
+    let at = |s: f64| FIRST_NOTE + (s * RATE as f64).round() as u64;
+    // Notes before the flood, 4,800 snare notes a second for a second, then notes again once
+    // the flood has left the planner's window (2 s of history) and the lookahead.
+    let before = [(1.0, 38u8), (1.5, 36), (2.0, 45)];
+    let after = [(6.5, 38u8), (7.0, 36), (7.5, 45), (8.0, 38), (8.5, 48), (9.0, 38)];
+    let mut schedule: Vec<(u64, [u8; 3])> =
+        before.iter().chain(&after).map(|&(t, note)| (at(t), [0x99, note, 100])).collect();
+    let flood: Vec<(u64, [u8; 3])> = (0..4800u64).map(|i| (at(2.5) + i * 10, [0x99, 38, 90])).collect();
+    schedule.extend(&flood);
+    schedule.sort_by_key(|(t, _)| *t);
+    let total = at(10.0);
+    let (client, armed, progress) = player("drumsim-test", schedule, total as usize);
+
+    let inbound = UdpSocket::bind("127.0.0.1:0").unwrap();
+    inbound.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
+    let to = format!("udp://{}", inbound.local_addr().unwrap());
+    let seconds = (total / RATE + 3).to_string();
+    let lookahead = LOOKAHEAD_MS.to_string();
+    let args = [
+        "--midi",
+        "drumsim-test:midi_out",
+        "--map",
+        "gm",
+        "--sound",
+        "physical",
+        "--sound-to",
+        &to,
+        "--lookahead-ms",
+        &lookahead,
+        "--duration-s",
+        &seconds,
+    ];
+    let mut live = Drumsim::live(&jack, &args);
+    live.wait_for("drumsim live: MIDI", Duration::from_secs(60));
+    let receiving = thread::spawn(move || {
+        let mut got = Vec::new();
+        let mut buf = vec![0u8; 65_536];
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(25) {
+            if let Ok(n) = inbound.recv(&mut buf) {
+                got.extend(decode_timed(&buf[..n]).unwrap());
+            }
+        }
+        got
+    });
+    armed.store(true, Ordering::Release);
+    let start = Instant::now();
+    while progress.load(Ordering::Acquire) < total {
+        assert!(start.elapsed() < Duration::from_secs(60), "JACK is not running the test client");
+        thread::sleep(Duration::from_millis(100));
+    }
+    let (_, _, player) = client.deactivate().unwrap();
+    let status = live.wait_exit(Duration::from_secs(30));
+    let stderr = live.stderr();
+    assert!(status.success(), "drumsim live failed ({status}):\n{stderr}");
+    let got = receiving.join().unwrap();
+    let wall_of = |frame: u64| {
+        let i = player.clock.partition_point(|(f, _)| *f <= frame).saturating_sub(1);
+        let (f0, w0) = player.clock[i];
+        w0 + (frame as f64 - f0 as f64) / RATE as f64
+    };
+    let contacts: Vec<(f64, String)> = got
+        .iter()
+        .filter_map(|(tag, m)| match (tag, m) {
+            (Some(tag), Message::Contact(c)) => Some((unix(*tag) - LOOKAHEAD_MS / 1e3, c.piece.clone())),
+            _ => None,
+        })
+        .collect();
+    let body = stderr.lines().find(|l| l.contains("body:")).unwrap_or_default().to_string();
+    println!("{} contacts; {body}", contacts.len());
+    let count = |what: &str| -> u64 {
+        let before = body.split(what).next().unwrap_or_default();
+        before.trim_end().rsplit(' ').next().and_then(|n| n.parse().ok()).unwrap_or(u64::MAX)
+    };
+    let flooded = count(" dropped in a note flood");
+    let dropped_events = stderr
+        .lines()
+        .filter_map(|l| l.split(" dropped events").next()?.rsplit(' ').next()?.parse::<u64>().ok())
+        .max()
+        .unwrap_or(0);
+    println!("flood: {flooded} events dropped by the planner's window, {dropped_events} by the MIDI queue");
+    assert!(flooded + dropped_events > 0, "the flood was not counted:\n{stderr}");
+    let periods = count(" periods at 250 Hz");
+    let lost = count(" behind (") + count(" dropped to catch up");
+    assert!(lost * 100 <= periods, "the body fell behind in {lost} of {periods} periods: {body}");
+    // The notes after the flood: each struck on its piece at its time + the lookahead.
+    let piece = |note: u8| match note {
+        38 => "snare",
+        36 => "kick",
+        45 => "tom2",
+        _ => "tom1",
+    };
+    for &(t, note) in &after {
+        let due = wall_of(at(t));
+        let nearest = contacts
+            .iter()
+            .filter(|c| c.1 == piece(note))
+            .map(|c| c.0 - due)
+            .min_by(|a, b| a.abs().total_cmp(&b.abs()));
+        assert!(
+            nearest.is_some_and(|d| d.abs() <= 0.010),
+            "the {} note at {t} s after the flood: nearest contact {:?} ms away",
+            piece(note),
+            nearest.map(|d| d * 1e3)
+        );
+    }
+}
