@@ -190,7 +190,7 @@ fn a_groove_midi_funk_take_is_played_by_the_body_and_its_pedals() {
 }
 
 #[test]
-fn a_kit_without_pedals_plays_the_hands_and_says_so_and_live_physical_with_an_avatar_is_refused() {
+fn a_kit_without_pedals_plays_the_hands_and_says_so_and_a_bad_live_lookahead_is_refused() {
     let dir = fresh_dir("nopedals");
     let kit = drumsim::kit::DEFAULT_KIT_TOML;
     let no_pedals = dir.join("no-pedals.toml");
