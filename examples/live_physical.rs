@@ -115,6 +115,11 @@ fn main() -> anyhow::Result<()> {
                 for kk in spurious {
                     let c = &msgs[kk];
                     println!("    spurious {:7.3} s {} speed {:.2} limb {:?}", c.time_s, c.piece, c.speed_mps, c.limb);
+                    if std::env::var_os("NEARBY").is_some() {
+                        for o in msgs.iter().filter(|o| (o.time_s - c.time_s).abs() < 0.03) {
+                            println!("      nearby {:7.4} s {} speed {:.2} limb {:?}", o.time_s, o.piece, o.speed_mps, o.limb);
+                        }
+                    }
                 }
             }
         }

@@ -14,8 +14,12 @@ use super::skeleton::{Skeleton, StickGeometry, HAND};
 use crate::interaction::message::{ContactMessage, Limb};
 use rapier3d::prelude::*;
 
-/// Time without impulse that ends a contact, seconds.
-pub const RELEASE_S: f64 = 0.003;
+/// Time without impulse that ends a contact, seconds. A stick that leaves a surface and
+/// meets it again sooner is still the same impact: a real stick's contact with a head lasts
+/// 1-6 ms, and a hi-hat's top cymbal, pushed down by the stick, springs back into it a few
+/// ms later. At 3 ms such re-touches of the hi-hat 3.5-4 ms after a stroke came out as a
+/// second stroke (live play on six validation takes: precision 83.7 % at 3 ms, 87.7 % at 6).
+pub const RELEASE_S: f64 = 0.006;
 /// Smallest impulse that counts as touching, N s.
 const MIN_IMPULSE_NS: f32 = 1e-6;
 /// Slowest approach that is a strike; slower contacts are a stick settling onto a piece
