@@ -5,7 +5,8 @@
 //! played as `drumsim live --sound physical` would (`perform::replay`).
 //!
 //! `cargo run --release --example live_physical [TAKE.mid ...] [--seconds S] [--lookahead-ms N]
-//! [--live-only]` (`DRUMSIM_LAG=off` or `=FILE`: live play without the lag model, or with another)
+//! [--live-only] [--verbose]` (`DRUMSIM_LAG=off` or `=FILE`: live play without the lag model, or with
+//! another; with `--verbose`, `NEARBY=1` lists the contacts within 30 ms of each stray one)
 //! (default: six validation takes, the first 30 s of each).
 
 use drumsim::interaction::ContactMessage;
@@ -117,7 +118,10 @@ fn main() -> anyhow::Result<()> {
                     println!("    spurious {:7.3} s {} speed {:.2} limb {:?}", c.time_s, c.piece, c.speed_mps, c.limb);
                     if std::env::var_os("NEARBY").is_some() {
                         for o in msgs.iter().filter(|o| (o.time_s - c.time_s).abs() < 0.03) {
-                            println!("      nearby {:7.4} s {} speed {:.2} limb {:?}", o.time_s, o.piece, o.speed_mps, o.limb);
+                            println!(
+                                "      nearby {:7.4} s {} speed {:.2} limb {:?}",
+                                o.time_s, o.piece, o.speed_mps, o.limb
+                            );
                         }
                     }
                 }
