@@ -1,13 +1,8 @@
 //! What an animator checks in a drummer's motion (issue 16): pops, flips, limbs through the
 //! body or the kit, a torso that turns with the hands, ghost notes low, blinks.
 //!
-//! The body is the 57-bone rig posed by the whole-body IK; the proxies below are what the
-//! measures treat as solid. Capsules (a segment and a radius, metres):
-//! - torso: hips joint to neck joint, 0.12; thighs: hip to knee, 0.075;
-//! - upper arm: shoulder ball to elbow, 0.045; forearm: elbow to wrist, 0.035; hand: wrist to
-//!   grip, 0.04; stick: butt to tip (a 16-inch stick held 28 cm from its tip), 0.008;
-//! - knee: a ball of 0.06 at the knee joint; shin: knee to ankle, 0.05; foot: ankle to toe,
-//!   0.045.
+//! The body is the 57-bone rig posed by the whole-body IK, its solids the capsules of
+//! [`crate::motion::proxies`] (a 16-inch stick held 28 cm from its tip; a ball at each knee).
 //!
 //! The kit's drums are solid cylinders: the head's disc (the kit file's radius) down to the
 //! shell depth the exports draw. Cymbals are discs a stick may not pass through.
@@ -27,15 +22,10 @@ use serde::Serialize;
 
 type V3 = Vector3<f32>;
 
-/// Radii of the proxies, m.
-pub const TORSO_R: f32 = 0.12;
-pub const THIGH_R: f32 = 0.075;
-pub const UPPER_ARM_R: f32 = 0.045;
-pub const FOREARM_R: f32 = 0.035;
-pub const HAND_R: f32 = 0.04;
-pub const STICK_R: f32 = 0.008;
-pub use crate::motion::shells::{KNEE_R, SHIN_R};
-pub const FOOT_R: f32 = 0.045;
+pub use crate::motion::proxies::{
+    FOOT_R, FOREARM_R, HAND_R, KNEE_R, SHIN_R, STICK_R, THIGH_R, TORSO_R, UPPER_ARM_R,
+};
+use crate::motion::proxies::Capsule;
 /// The arm proxies' names, per side.
 const ARM_PARTS: [[&str; 4]; 2] = [
     ["left upper arm", "left forearm", "left hand", "left stick"],
@@ -73,6 +63,8 @@ pub struct MotionQuality {
     pub deepest_in_body_m: f32,
     pub deepest_in_body_at: String,
     pub frames_in_body: usize,
+    /// Frames with each pair (arm part in body part) deeper than 1 cm.
+    pub frames_in_body_by_pair: std::collections::BTreeMap<String, usize>,
     /// Deepest stick, hand or arm proxy inside a drum, m, where, and frames deeper than 1 cm.
     pub deepest_arm_in_kit_m: f32,
     pub deepest_arm_in_kit_at: String,
@@ -103,48 +95,9 @@ pub struct MotionQuality {
     seconds: f64,
 }
 
-/// A capsule: segment `a`-`b`, radius `r`.
-#[derive(Debug, Clone, Copy)]
-struct Capsule {
-    a: V3,
-    b: V3,
-    r: f32,
-    name: &'static str,
-}
-
-/// Closest distance between segments `p0`-`p1` and `q0`-`q1`.
-fn segment_distance(p0: V3, p1: V3, q0: V3, q1: V3) -> f32 {
-    let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
-    let (a, e, f) = (d1.dot(&d1), d2.dot(&d2), d2.dot(&r));
-    let (s, t) = if a < 1e-12 && e < 1e-12 {
-        (0.0, 0.0)
-    } else if a < 1e-12 {
-        (0.0, (f / e).clamp(0.0, 1.0))
-    } else {
-        let c = d1.dot(&r);
-        if e < 1e-12 {
-            ((-c / a).clamp(0.0, 1.0), 0.0)
-        } else {
-            let b = d1.dot(&d2);
-            let denom = a * e - b * b;
-            let mut s = if denom > 1e-12 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
-            let mut t = (b * s + f) / e;
-            if t < 0.0 {
-                t = 0.0;
-                s = (-c / a).clamp(0.0, 1.0);
-            } else if t > 1.0 {
-                t = 1.0;
-                s = ((b - c) / a).clamp(0.0, 1.0);
-            }
-            (s, t)
-        }
-    };
-    ((p0 + d1 * s) - (q0 + d2 * t)).norm()
-}
-
 /// How deep capsule `c` reaches into capsule `o` (negative: apart).
 fn overlap(c: &Capsule, o: &Capsule) -> f32 {
-    c.r + o.r - segment_distance(c.a, c.b, o.a, o.b)
+    c.overlap(o)
 }
 
 /// A cymbal as a disc.
@@ -301,6 +254,9 @@ pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes:
             for o in legs.iter().map(|l| &l[0]).chain(torso_too.then_some(&torso)) {
                 let d = overlap(a, o);
                 worst_body = worst_body.max(d);
+                if d > 0.01 {
+                    *q.frames_in_body_by_pair.entry(format!("{} in {}", a.name, o.name)).or_default() += 1;
+                }
                 set_max(&mut q.deepest_in_body_m, &mut q.deepest_in_body_at, d, || {
                     at(&format!("{} in {}", a.name, o.name))
                 });
@@ -413,6 +369,9 @@ impl MotionQuality {
         self.wrist_steps_over_6cm += other.wrist_steps_over_6cm;
         self.wrist_steps_over_10cm += other.wrist_steps_over_10cm;
         self.frames_in_body += other.frames_in_body;
+        for (pair, n) in &other.frames_in_body_by_pair {
+            *self.frames_in_body_by_pair.entry(pair.clone()).or_default() += n;
+        }
         self.frames_arm_in_kit += other.frames_arm_in_kit;
         self.frames_stick_through_cymbal += other.frames_stick_through_cymbal;
         self.frames_leg_in_kit += other.frames_leg_in_kit;
@@ -452,29 +411,6 @@ impl MotionQuality {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn capsules_overlap_by_their_radii_less_the_distance_of_their_segments() {
-        let v = V3::new;
-        // Crossing segments 10 cm apart.
-        assert!(
-            (segment_distance(v(-1.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, -1.0, 0.1), v(0.0, 1.0, 0.1)) - 0.1).abs()
-                < 1e-6
-        );
-        // Parallel, overlapping along their length, 5 cm apart; and end to end.
-        assert!(
-            (segment_distance(v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.5, 0.05, 0.0), v(2.0, 0.05, 0.0)) - 0.05).abs()
-                < 1e-6
-        );
-        assert!(
-            (segment_distance(v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(1.3, 0.0, 0.0), v(2.0, 0.0, 0.0)) - 0.3).abs()
-                < 1e-6
-        );
-        // A ball (a point segment) 8 cm from a capsule's axis: 2 cm into a 6 + 4 cm pair.
-        let a = Capsule { a: v(0.0, 0.0, 0.0), b: v(1.0, 0.0, 0.0), r: 0.06, name: "a" };
-        let b = Capsule { a: v(0.5, 0.08, 0.0), b: v(0.5, 0.08, 0.0), r: 0.04, name: "b" };
-        assert!((overlap(&a, &b) - 0.02).abs() < 1e-6);
-    }
 
     #[test]
     fn a_stick_passes_through_a_cymbal_only_across_its_disc() {

@@ -19,6 +19,7 @@
 //! clamped just short of full extension, so the elbow and knee stay defined); non-finite
 //! targets fall back to the rest pose's. No output is ever NaN.
 
+use super::proxies::{segment_distance, Capsule, FOREARM_R, TORSO_R};
 use super::rig::{BodyPose, Rig, FOOT, HAND, HEAD, HIPS, NECK, SHOULDER, SPINE, UPPER_LEG};
 use super::shells::{Shell, KNEE_R, SHIN_R};
 use super::track::{Motion, MotionFrame, Pose};
@@ -56,8 +57,10 @@ pub fn solve(rig: &Rig, frame: &MotionFrame) -> BodyPose {
 pub struct Carry {
     pub twist: [Option<f32>; 2],
     pub knee: [Option<f32>; 2],
-    /// Each elbow's direction across its arm (unit).
+    /// Each elbow's direction across its arm (unit), before [`elbow_clear_of`]'s swing.
     pub elbow: [Option<Vector3<f32>>; 2],
+    /// Each elbow's swing out of the torso, radians (see [`elbow_clear_of`]).
+    pub swing: [f32; 2],
 }
 
 /// [`solve`], continuing from `carry` (the frame before's twists, and the knees' turns of
@@ -98,13 +101,18 @@ pub fn solve_after(rig: &Rig, frame: &MotionFrame, carry: &mut Carry) -> BodyPos
         // Out, down and a little back; and toward where the elbow was the frame before,
         // so that a wrist passing near the pole's line does not swing the elbow over.
         let pole = Vector3::new(0.8 * out, -0.3, -1.0).normalize() + carry.elbow[side].unwrap_or_else(Vector3::zeros);
-        let limb = TwoBone {
+        let mut limb = TwoBone {
             root: world[arm].0,
             lengths: [rig.link_length(forearm), rig.link_length(hand)],
             pole,
             hinge_rest: Vector3::x(),
         };
         carry.elbow[side] = Some(limb.geometry(wrist).1).filter(|p| p.iter().all(|v| v.is_finite()));
+        let torso = Capsule { a: world[HIPS].0, b: world[NECK[0]].0, r: TORSO_R, name: "torso" };
+        let swing = elbow_clear_of(&limb, wrist, &torso);
+        let swing = carry.swing[side] + (swing - carry.swing[side]).clamp(-MAX_SWING_STEP_RAD, MAX_SWING_STEP_RAD);
+        carry.swing[side] = if swing.is_finite() { swing } else { 0.0 };
+        limb.pole = limb.swung(wrist, carry.swing[side]);
         let (upper_w, lower_w, bend) = limb.solve(wrist);
         let parent_rot = world[sh].1;
         pose.local[arm] = parent_rot.inverse() * upper_w;
@@ -154,6 +162,53 @@ pub fn solve_after(rig: &Rig, frame: &MotionFrame, carry: &mut Carry) -> BodyPos
         pose.local[foot] = lower_w.inverse() * foot_rot;
     }
     pose
+}
+
+/// How far the forearm stays off the torso, m (see [`elbow_clear_of`]).
+pub const ARM_CLEARANCE_M: f32 = 0.01;
+/// The most an elbow swings out about its shoulder-wrist line, radians: 70 degrees.
+pub const MAX_SWING_RAD: f32 = 70.0 * std::f32::consts::PI / 180.0;
+/// The most that swing changes between two frames, radians: 5 degrees, 300 a second at 60
+/// fps.
+pub const MAX_SWING_STEP_RAD: f32 = 5.0 * std::f32::consts::PI / 180.0;
+
+/// How far `limb` (an arm) reaching `wrist` swings its elbow about the shoulder-wrist line,
+/// radians, to keep its forearm [`ARM_CLEARANCE_M`] off `torso`: 0 when its own pole
+/// does, else the least swing outward (the way that takes the elbow away from the torso's
+/// axis) that clears it, at most [`MAX_SWING_RAD`]. A hand crossing in front of the body
+/// (the right hand on the hi-hat) lifts its elbow out instead of folding it into the belly.
+fn elbow_clear_of(limb: &TwoBone, wrist: Vector3<f32>, torso: &Capsule) -> f32 {
+    let depth = |angle: f32| {
+        let elbow = TwoBone { pole: limb.swung(wrist, angle), ..*limb }.middle(wrist);
+        Capsule { a: elbow, b: wrist, r: FOREARM_R, name: "forearm" }.overlap(torso)
+    };
+    if depth(0.0) <= -ARM_CLEARANCE_M {
+        return 0.0;
+    }
+    // Outward: the way the elbow leaves the torso's axis.
+    let off_axis = |angle: f32| {
+        let elbow = TwoBone { pole: limb.swung(wrist, angle), ..*limb }.middle(wrist);
+        segment_distance(elbow, elbow, torso.a, torso.b)
+    };
+    let turn = if off_axis(0.1) >= off_axis(-0.1) { 1.0 } else { -1.0 };
+    let steps = 14;
+    let step = MAX_SWING_RAD / steps as f32;
+    for k in 1..=steps {
+        if depth(turn * k as f32 * step) <= -ARM_CLEARANCE_M {
+            // The least swing that clears, to a twentieth of a step.
+            let (mut lo, mut hi) = ((k - 1) as f32 * step, k as f32 * step);
+            for _ in 0..4 {
+                let mid = 0.5 * (lo + hi);
+                if depth(turn * mid) <= -ARM_CLEARANCE_M {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            return turn * hi;
+        }
+    }
+    turn * MAX_SWING_RAD
 }
 
 /// How far the knee and shin stay from a drum, m.
@@ -266,6 +321,7 @@ fn twist_about_z(q: &UnitQuaternion<f32>) -> UnitQuaternion<f32> {
 
 /// A two-bone limb whose bones point down (-z) in the rest pose and bend about
 /// `hinge_rest` (a rest-frame axis perpendicular to z).
+#[derive(Clone, Copy)]
 struct TwoBone {
     /// World position of the first joint (shoulder, hip).
     root: Vector3<f32>,
@@ -290,6 +346,12 @@ impl TwoBone {
         let axis = nalgebra::Unit::new_normalize(self.hinge_rest);
         let bend = UnitQuaternion::from_axis_angle(&axis, bend_angle);
         (upper, upper * bend, bend)
+    }
+
+    /// The pole swung by `angle` radians about the line from the root to `target`.
+    fn swung(&self, target: Vector3<f32>, angle: f32) -> Vector3<f32> {
+        let (_, perp, dir, _) = self.geometry(target);
+        UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_unchecked(dir), angle) * perp
     }
 
     /// Where the middle joint (elbow, knee) lands for `target`.
@@ -393,6 +455,44 @@ mod tests {
         assert!(w[SPINE[2]].1.angle_to(&f.chest.rotation()) < 1e-4);
         assert!(w[HEAD].1.angle_to(&f.head.rotation()) < 1e-4);
         assert!((w[NECK[0]].0 - Vector3::from(f.chest.pos)).norm() < 1e-3);
+    }
+
+    #[test]
+    fn a_hand_crossing_in_front_of_the_body_swings_its_elbow_out_of_the_torso() {
+        let rig = Rig::default();
+        let feet = [[-0.3, 0.35, 0.1], [0.1, 0.55, 0.1]];
+        // The right hand sweeps from over the floor tom to in front of the chest (a crossed
+        // hi-hat stroke's upswing), one frame at a time.
+        let frames: Vec<MotionFrame> = (0..=40)
+            .map(|i| {
+                let t = i as f32 / 40.0;
+                let right = Vector3::new(0.25, 0.35, 0.8).lerp(&Vector3::new(-0.09, 0.11, 1.0), t);
+                frame(&rig, [[-0.2, 0.13, 0.71], right.into()], feet)
+            })
+            .collect();
+        let motion = Motion { fps: 60.0, frames: frames.clone() };
+        let poses = solve_motion(&rig, &motion);
+        let mut swung = false;
+        for (f, pose) in poses.iter().enumerate() {
+            let w = rig.world(pose);
+            let torso = Capsule { a: w[HIPS].0, b: w[NECK[0]].0, r: TORSO_R, name: "torso" };
+            let (elbow, wrist) = (w[HAND[1] - 1].0, w[HAND[1]].0);
+            let forearm = Capsule { a: elbow, b: wrist, r: FOREARM_R, name: "forearm" };
+            let depth = forearm.overlap(&torso);
+            // The swing aims for ARM_CLEARANCE_M; its rate limit may eat some of that margin on
+            // a fast sweep, never all of it.
+            assert!(depth <= 0.0, "frame {f}: the forearm is {depth} m into the torso");
+            let err = (grips(&rig, pose)[1] - Vector3::from(frames[f].hands[1].pos)).norm();
+            assert!(err < 1e-3, "frame {f}: the hand misses by {err} m");
+            swung |= elbow.x > wrist.x + 0.1;
+            if f > 0 {
+                for (b, (q1, q0)) in pose.local.iter().zip(&poses[f - 1].local).enumerate() {
+                    let deg = q1.angle_to(q0).to_degrees();
+                    assert!(deg < 10.0, "frame {f}: {} turns {deg} degrees", rig.bones[b].name);
+                }
+            }
+        }
+        assert!(swung, "the elbow stays in front of the belly");
     }
 
     #[test]

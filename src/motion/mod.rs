@@ -11,6 +11,7 @@ pub mod humanoid;
 pub mod mocap;
 pub mod pipeline;
 pub mod plan;
+pub mod proxies;
 pub mod rig;
 pub mod shells;
 pub mod track;
