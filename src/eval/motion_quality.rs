@@ -22,17 +22,13 @@ use serde::Serialize;
 
 type V3 = Vector3<f32>;
 
-pub use crate::motion::proxies::{
-    FOOT_R, FOREARM_R, HAND_R, KNEE_R, SHIN_R, STICK_R, THIGH_R, TORSO_R, UPPER_ARM_R,
-};
-use crate::motion::proxies::Capsule;
+use crate::motion::proxies::{Capsule, GRIP_TO_BUTT_M};
+pub use crate::motion::proxies::{FOOT_R, FOREARM_R, HAND_R, KNEE_R, SHIN_R, STICK_R, THIGH_R, TORSO_R, UPPER_ARM_R};
 /// The arm proxies' names, per side.
 const ARM_PARTS: [[&str; 4]; 2] = [
     ["left upper arm", "left forearm", "left hand", "left stick"],
     ["right upper arm", "right forearm", "right hand", "right stick"],
 ];
-/// From the grip to the stick's butt, m (a 40.6 cm stick held 28 cm from its tip).
-const GRIP_TO_BUTT_M: f32 = 0.126;
 
 /// A hand note as the measures need it: when, which kit piece, how loud, which hand.
 #[derive(Debug, Clone, Copy)]
@@ -235,7 +231,12 @@ pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes:
         let mut frame_tips = [V3::zeros(); 2];
         for s in 0..2 {
             let (ball, elbow, wrist) = (p(HAND[s] - 2), p(HAND[s] - 1), p(HAND[s]));
-            let grip = &frame.hands[s];
+            // The hand as posed (the IK turns a stick in the body about its tip).
+            let (hand_at, hand_rot) = w[HAND[s]];
+            let grip = &crate::motion::track::Pose {
+                pos: (hand_at + hand_rot * rig.grip_local).into(),
+                rot: [hand_rot.w, hand_rot.i, hand_rot.j, hand_rot.k],
+            };
             let tip = V3::from(grip.stick_tip());
             let butt = V3::from(grip.apply([0.0, -GRIP_TO_BUTT_M, 0.0]));
             let g = V3::from(grip.pos);

@@ -14,6 +14,7 @@ pub mod plan;
 pub mod proxies;
 pub mod rig;
 pub mod shells;
+pub mod stick_clear;
 pub mod track;
 pub mod upper;
 pub mod window;

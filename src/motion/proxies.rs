@@ -21,6 +21,8 @@ pub const FOREARM_R: f32 = 0.035;
 pub const HAND_R: f32 = 0.04;
 pub const STICK_R: f32 = 0.008;
 pub const FOOT_R: f32 = 0.045;
+/// From the grip to the stick's butt, m (a 40.6 cm stick held 28 cm from its tip).
+pub const GRIP_TO_BUTT_M: f32 = 0.126;
 
 /// A capsule: segment `a`-`b`, radius `r`.
 #[derive(Debug, Clone, Copy)]
@@ -40,6 +42,12 @@ impl Capsule {
 
 /// Closest distance between segments `p0`-`p1` and `q0`-`q1`.
 pub fn segment_distance(p0: V3, p1: V3, q0: V3, q1: V3) -> f32 {
+    let (p, q) = closest_points(p0, p1, q0, q1);
+    (p - q).norm()
+}
+
+/// The closest points of segments `p0`-`p1` and `q0`-`q1`, one on each.
+pub fn closest_points(p0: V3, p1: V3, q0: V3, q1: V3) -> (V3, V3) {
     let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
     let (a, e, f) = (d1.dot(&d1), d2.dot(&d2), d2.dot(&r));
     let (s, t) = if a < 1e-12 && e < 1e-12 {
@@ -65,7 +73,7 @@ pub fn segment_distance(p0: V3, p1: V3, q0: V3, q1: V3) -> f32 {
             (s, t)
         }
     };
-    ((p0 + d1 * s) - (q0 + d2 * t)).norm()
+    (p0 + d1 * s, q0 + d2 * t)
 }
 
 #[cfg(test)]

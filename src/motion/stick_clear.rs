@@ -1,0 +1,177 @@
+//! A hand's grip moved out of the body, the stick turning about its tip (issue 16).
+//!
+//! The hand model and strike planning place the stick tip; the grip follows from the
+//! predicted stick direction, and on a kit laid out tighter than the mocap's it lands in the
+//! drummer: a crossed right hand on the hi-hat 14 cm in front of the spine with the stick's
+//! butt in the chest, a snare hand 3 cm over the head, resting in the thigh. [`clear_of`]
+//! turns the stick about its tip, so every strike stays where it was planned, until the
+//! hand (wrist to grip), and the stick (butt to tip) are `clearance` off each body capsule:
+//! the crossed hand moves forward, the snare hand rises and its stick tilts down to the head
+//! as a drummer's does.
+
+use super::proxies::{closest_points, Capsule, GRIP_TO_BUTT_M, HAND_R, STICK_R};
+use super::track::{Pose, STICK_TIP_LOCAL};
+use nalgebra::{UnitQuaternion, Vector3};
+
+type V3 = Vector3<f32>;
+
+/// Projection rounds: each moves the grip out of what it is in, then back onto the sphere
+/// about the tip.
+const ROUNDS: usize = 12;
+/// How far ahead of the grip the stick is kept out of the body, m: the rest, toward the
+/// tip, is where the strike is and hardly moves when the stick turns about it.
+const STICK_AHEAD_M: f32 = 0.1;
+
+/// `hand` (grip position and rotation, the stick along local +y, the wrist at `-grip_local`
+/// from the grip in the hand's frame) turned about its stick tip so that hand and stick stay
+/// `clearance` off every capsule of `body`. A hand already clear comes back unchanged; one
+/// that cannot clear (its tip inside the body) comes back as near as [`ROUNDS`] bring it.
+pub fn clear_of(hand: &Pose, grip_local: V3, body: &[Capsule], clearance: f32) -> Pose {
+    let q0 = hand.rotation();
+    let g0 = V3::from(hand.pos);
+    let tip = V3::from(hand.stick_tip());
+    let length = V3::from(STICK_TIP_LOCAL).norm();
+    let axis0 = q0 * V3::y();
+    if !(g0.iter().chain(tip.iter()).all(|v| v.is_finite())) || body.is_empty() {
+        return *hand;
+    }
+    let turned = |g: V3| {
+        let axis = (tip - g) / length;
+        UnitQuaternion::rotation_between(&axis0, &axis).unwrap_or_else(UnitQuaternion::identity) * q0
+    };
+    let mut g = g0;
+    let mut moved_ever = false;
+    for _ in 0..ROUNDS {
+        let q = turned(g);
+        let axis = q * V3::y();
+        let wrist = g - q * grip_local;
+        let butt = g - axis * GRIP_TO_BUTT_M;
+        let mut push = V3::zeros();
+        for c in body {
+            // The hand: a push on it moves the grip as much.
+            let (p, o) = closest_points(wrist, g, c.a, c.b);
+            push += out_of(p, o, c.r + HAND_R + clearance, c);
+            // The stick: a push at a point turns the stick about the tip.
+            let (p, o) = closest_points(butt, g + axis * STICK_AHEAD_M, c.a, c.b);
+            let lever = length / (p - tip).norm().max(length - STICK_AHEAD_M);
+            push += out_of(p, o, c.r + STICK_R + clearance, c) * lever;
+        }
+        if push.norm_squared() < 1e-10 {
+            break;
+        }
+        let moved = g + push - tip;
+        if moved.norm() < 1e-6 {
+            break;
+        }
+        g = tip + moved * (length / moved.norm());
+        moved_ever = true;
+    }
+    if !moved_ever {
+        return *hand;
+    }
+    turned_to(hand, g)
+}
+
+/// `hand` turned about its stick tip so that its grip lies toward `g` (at the stick's length
+/// from the tip, on the line from the tip through `g`).
+pub fn turned_to(hand: &Pose, g: V3) -> Pose {
+    let q0 = hand.rotation();
+    let tip = V3::from(hand.stick_tip());
+    let length = V3::from(STICK_TIP_LOCAL).norm();
+    let to_tip = tip - g;
+    if !(to_tip.norm() > 1e-6) {
+        return *hand;
+    }
+    let axis = to_tip.normalize();
+    let q = UnitQuaternion::rotation_between(&(q0 * V3::y()), &axis).unwrap_or_else(UnitQuaternion::identity) * q0;
+    Pose { pos: (tip - axis * length).into(), rot: [q.w, q.i, q.j, q.k] }
+}
+
+/// How far point `p` must move, away from `o` (its nearest point on `c`'s axis), to lie
+/// `need` from it; zero when it already does.
+fn out_of(p: V3, o: V3, need: f32, c: &Capsule) -> V3 {
+    let d = p - o;
+    let dist = d.norm();
+    if dist >= need {
+        return V3::zeros();
+    }
+    // On the axis itself: out horizontally, across the capsule.
+    let n = if dist > 1e-6 {
+        d / dist
+    } else {
+        let across = (c.b - c.a).cross(&V3::z());
+        if across.norm() > 1e-6 {
+            across.normalize()
+        } else {
+            V3::y()
+        }
+    };
+    n * (need - dist)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn torso() -> Capsule {
+        Capsule { a: V3::new(0.0, -0.05, 0.61), b: V3::new(0.0, -0.04, 1.12), r: 0.12, name: "torso" }
+    }
+
+    fn thigh() -> Capsule {
+        Capsule { a: V3::new(-0.1, -0.05, 0.6), b: V3::new(-0.2, 0.35, 0.55), r: 0.075, name: "thigh" }
+    }
+
+    /// A hand at `grip` whose stick points at `tip` (level roll).
+    fn aiming(grip: V3, tip: V3) -> Pose {
+        let axis = (tip - grip).normalize();
+        let q = UnitQuaternion::rotation_between(&V3::y(), &axis).unwrap();
+        let g = tip - axis * 0.28;
+        Pose { pos: g.into(), rot: [q.w, q.i, q.j, q.k] }
+    }
+
+    fn depth(hand: &Pose, grip_local: V3, c: &Capsule) -> f32 {
+        let q = hand.rotation();
+        let g = V3::from(hand.pos);
+        let hand_c = Capsule { a: g - q * grip_local, b: g, r: HAND_R, name: "hand" };
+        let stick =
+            Capsule { a: g - q * V3::y() * GRIP_TO_BUTT_M, b: V3::from(hand.stick_tip()), r: STICK_R, name: "stick" };
+        hand_c.overlap(c).max(stick.overlap(c))
+    }
+
+    #[test]
+    fn a_crossed_hand_in_the_chest_moves_out_and_keeps_its_tip() {
+        let grip_local = V3::new(0.0, 0.0, -0.066);
+        // The right hand on the hi-hat's near edge, 14 cm in front of the spine.
+        let hand = aiming(V3::new(-0.06, 0.10, 1.0), V3::new(-0.29, 0.25, 1.0));
+        let body = [torso(), thigh()];
+        assert!(depth(&hand, grip_local, &body[0]) > 0.03, "the test hand starts in the chest");
+        let cleared = clear_of(&hand, grip_local, &body, 0.01);
+        let tip_moved = (V3::from(cleared.stick_tip()) - V3::from(hand.stick_tip())).norm();
+        assert!(tip_moved < 1e-4, "the tip moved {tip_moved} m");
+        for c in &body {
+            let d = depth(&cleared, grip_local, c);
+            assert!(d <= -0.009, "{}: {d} m", c.name);
+        }
+    }
+
+    #[test]
+    fn a_snare_hand_on_the_thigh_rises_and_its_stick_tilts_down() {
+        let grip_local = V3::new(0.0, 0.0, -0.066);
+        let hand = aiming(V3::new(-0.22, 0.12, 0.65), V3::new(-0.12, 0.38, 0.625));
+        let cleared = clear_of(&hand, grip_local, &[torso(), thigh()], 0.01);
+        assert!(cleared.pos[2] > hand.pos[2] + 0.03, "the grip stays at {} m", cleared.pos[2]);
+        let down = |h: &Pose| -(h.rotation() * V3::y()).z;
+        assert!(down(&cleared) > down(&hand) + 0.1, "the stick tilts {} (was {})", down(&cleared), down(&hand));
+        let d = depth(&cleared, grip_local, &thigh());
+        // Clear, bar the stick's front by the head, which the strike places.
+        assert!(d <= -0.005, "{d} m into the thigh, grip {:?}", cleared.pos);
+        assert!((V3::from(cleared.stick_tip()) - V3::from(hand.stick_tip())).norm() < 1e-4);
+    }
+
+    #[test]
+    fn a_hand_clear_of_the_body_is_left_alone() {
+        let hand = aiming(V3::new(0.1, 0.3, 0.9), V3::new(0.0, 0.55, 0.8));
+        let cleared = clear_of(&hand, V3::new(0.0, 0.0, -0.066), &[torso(), thigh()], 0.01);
+        assert_eq!(cleared, hand);
+    }
+}
