@@ -79,7 +79,7 @@ pub fn turned_to(hand: &Pose, g: V3) -> Pose {
     let tip = V3::from(hand.stick_tip());
     let length = V3::from(STICK_TIP_LOCAL).norm();
     let to_tip = tip - g;
-    if !(to_tip.norm() > 1e-6) {
+    if to_tip.norm().is_nan() || to_tip.norm() <= 1e-6 {
         return *hand;
     }
     let axis = to_tip.normalize();
