@@ -327,9 +327,11 @@ impl Poser {
         let mut carry = body_ik::Carry { knee: self.knees, ..Default::default() };
         let mut played = Played::default();
         while !stop.load(Relaxed) {
-            let Some((_, skipped)) = pacer.next_frame(u64::MAX) else { return };
+            let Some((i, skipped)) = pacer.next_frame(u64::MAX) else { return };
             stats.late_frames.fetch_add(skipped, Relaxed);
-            let now = epoch.elapsed().as_secs_f64();
+            // The frame shows the moment it was due (a thread woken a few ms late on a busy
+            // machine still poses its frame's moment: frames stay 1/60 s apart).
+            let now = pacer.due(i).saturating_duration_since(epoch).as_secs_f64();
             while let Ok(p) = plans.try_recv() {
                 before = newest.replace(p);
                 since = now;

@@ -21,6 +21,7 @@ pub mod perform;
 pub mod render;
 pub mod rng;
 pub mod rt_alloc;
+pub mod rt_priority;
 pub mod sound;
 pub mod sound_server;
 pub mod view;

@@ -226,6 +226,9 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
     }
 
     let stats = audio.as_ref().map(|a| a.stats.clone()).unwrap_or_default();
+    // Ctrl-C (or SIGTERM) stops the session as --duration-s does, with its summary; a second
+    // one exits at once.
+    crate::outputs::stop_gracefully_on_interrupt();
     let result = supervise(&mut input, audio.as_ref(), &counters, opts.duration_s);
     drop(input); // closes the MIDI port: the interaction thread ends, then the feed thread
     interaction.join().map_err(|_| anyhow::anyhow!("the interaction thread panicked"))?;
@@ -452,7 +455,7 @@ fn status(port: &str, channel: u8, map: &str, audio: &AudioOutput, lookahead_ms:
     )
 }
 
-/// The main thread's loop: until `duration_s`, watch the port, report problems as they happen.
+/// The main thread's loop: until `duration_s` or an interrupt, watch the port, report problems as they happen.
 fn supervise(
     input: &mut LiveInput,
     audio: Option<&AudioOutput>,
@@ -465,7 +468,7 @@ fn supervise(
     let mut reported = (0, 0);
     loop {
         let now = Instant::now();
-        if deadline.is_some_and(|d| now >= d) {
+        if deadline.is_some_and(|d| now >= d) || crate::outputs::interrupted() {
             return Ok(());
         }
         let until = deadline.map_or(next_check, |d| d.min(next_check));

@@ -208,6 +208,9 @@ pub fn start(
         let (stop, stats) = (stop.clone(), body.clone());
         thread::Builder::new().name("drumsim-body".into()).spawn(move || {
             crate::rt_alloc::RtPool::enter(paced::POOL_BYTES);
+            // Ahead of every ordinary thread (a browser drawing the avatar, the planner): a
+            // body that falls behind drops periods and the strokes in them.
+            let _ = stats.scheduling.set(crate::rt_priority::raise_current_thread());
             match Conductor::live(&kit, settings, first.targets, first.pedals, t0) {
                 Ok(c) => paced::run(c, clock, hands, &plan_rx, &spent_tx, &out_tx, &stats, &stop),
                 Err(e) => eprintln!("drumsim live: the body could not be built: {e}"),

@@ -146,6 +146,8 @@ pub struct PacedStats {
     /// Calls of the physics thread that reached the system allocator after its first
     /// second (`rt_alloc`; only counted where the binary's allocator is `RtPool`).
     pub system_allocs: AtomicU64,
+    /// How the physics thread is scheduled (`rt_priority`), set once as it starts.
+    pub scheduling: std::sync::OnceLock<crate::rt_priority::Scheduling>,
 }
 
 impl PacedStats {
@@ -153,10 +155,11 @@ impl PacedStats {
         let periods = self.periods.load(Relaxed);
         let busy = self.busy_us.load(Relaxed) as f64 * 1e-6;
         let wall = periods as f64 / TASK_HZ;
+        let scheduling = self.scheduling.get().map_or(String::new(), |s| format!(", at {s}"));
         format!(
             "body: {periods} periods at 250 Hz ({:.0} % of a core), {} started over 2 ms late (worst {:.1} ms), {} \
              behind (contacts at risk of sounding late), {} dropped to catch up, {} plans, {} contacts, {} system \
-             allocator calls in steady state",
+             allocator calls in steady state{scheduling}",
             if wall > 0.0 { 100.0 * busy / wall } else { 0.0 },
             self.late_periods.load(Relaxed),
             self.worst_late_us.load(Relaxed) as f64 / 1e3,

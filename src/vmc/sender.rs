@@ -24,13 +24,18 @@ impl Pacer {
         self.start.elapsed().as_secs_f64()
     }
 
+    /// When frame `i` is due.
+    pub fn due(&self, i: u64) -> Instant {
+        self.start + Duration::from_secs_f64(i as f64 / self.rate_hz)
+    }
+
     /// Wait for the next frame's deadline and return its index and the number of frames
     /// skipped to catch up; none once `total` frames have gone.
     pub fn next_frame(&mut self, total: u64) -> Option<(u64, u64)> {
         if self.next >= total {
             return None;
         }
-        let due = self.start + Duration::from_secs_f64(self.next as f64 / self.rate_hz);
+        let due = self.due(self.next);
         let now = Instant::now();
         if due > now {
             std::thread::sleep(due - now);

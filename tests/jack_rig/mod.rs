@@ -127,6 +127,12 @@ impl Drumsim {
         }
     }
 
+    /// Ctrl-C: drumsim stops as it would at the end of `--duration-s`, printing its summary.
+    pub fn interrupt(&mut self, timeout: Duration) -> std::process::ExitStatus {
+        let _ = Command::new("kill").args(["-INT", &self.child.id().to_string()]).status();
+        self.wait_exit(timeout)
+    }
+
     pub fn wait_exit(&mut self, timeout: Duration) -> std::process::ExitStatus {
         let start = Instant::now();
         loop {
