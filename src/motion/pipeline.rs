@@ -8,7 +8,7 @@
 use super::corpus::{self, CorpusError, Rng};
 use super::plan::{self, AssignSettings, HandNote, StrokeSettings};
 use super::track::{Motion, MotionFrame, Pose, FPS};
-use super::upper::{self, Library, LibraryError, MatchReport, MatchSettings};
+use super::upper::{self, Library, LibraryError, MatchIndex, MatchReport, MatchSettings};
 use crate::kit::Kit;
 use crate::midi::roll::piano_roll;
 use crate::midi::{NoteMap, Performance};
@@ -95,6 +95,19 @@ pub fn perform_planned(
     predicted: &[[Pose; 2]],
     library: &Library,
 ) -> Result<Planned, MotionError> {
+    perform_planned_indexed(perf, map, kit, predicted, library, &MatchIndex::of(library)?)
+}
+
+/// [`perform_planned`] with the library's index made beforehand (`MatchIndex::of(library)`):
+/// for a caller that plans over and over (the live motion stage).
+pub fn perform_planned_indexed(
+    perf: &Performance,
+    map: &NoteMap,
+    kit: &Kit,
+    predicted: &[[Pose; 2]],
+    library: &Library,
+    index: &MatchIndex,
+) -> Result<Planned, MotionError> {
     let roll = piano_roll(perf, map);
     let frames = roll.len();
     if frames == 0 || perf.events.is_empty() {
@@ -129,7 +142,7 @@ pub fn perform_planned(
     let hands = plan::plan_hands(&smoothed, FPS, &notes, &assignment, StrokeSettings::default()).sample(FPS, frames);
     // Upper body and face.
     let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
-    let (mut upper, retrieval) = upper::retrieve(library, &masks, &MatchSettings::default())?;
+    let (mut upper, retrieval) = upper::retrieve_indexed(library, index, &masks, &MatchSettings::default())?;
     upper::turn::turn_toward_hands(&mut upper, &hands);
     // Feet and hi-hat.
     let feet = super::feet::feet(perf, map, frames, &mut Rng::new(0), super::feet::home_for(kit));

@@ -13,7 +13,7 @@ use super::hands::HandModel;
 use super::pipeline::{self, MotionError};
 use super::plan::PlannedHands;
 use super::track::{Motion, MotionFrame, Pose, FPS};
-use super::upper::Library;
+use super::upper::{Library, MatchIndex};
 use crate::kit::Kit;
 use crate::midi::{DrumEvent, DrumEventKind, NoteMap, Performance};
 use std::collections::VecDeque;
@@ -34,6 +34,8 @@ pub struct WindowMotion {
     map: NoteMap,
     model: HandModel,
     library: Library,
+    /// The library's index, made once (none: the library is bad, and each plan says why).
+    index: Option<MatchIndex>,
     lookahead_s: f64,
     /// Events in time order (session clock).
     events: VecDeque<DrumEvent>,
@@ -100,6 +102,7 @@ impl WindowMotion {
             kit,
             map,
             model,
+            index: MatchIndex::of(&library).ok(),
             library,
             lookahead_s,
             events: VecDeque::with_capacity(MAX_EVENTS),
@@ -165,7 +168,12 @@ impl WindowMotion {
             channel: self.map.channel,
         };
         let hands = pipeline::model_hands(&self.model, &perf, &self.map);
-        let planned = pipeline::perform_planned(&perf, &self.map, &self.kit, &hands, &self.library)?;
+        let planned = match &self.index {
+            Some(index) => {
+                pipeline::perform_planned_indexed(&perf, &self.map, &self.kit, &hands, &self.library, index)?
+            }
+            None => pipeline::perform_planned(&perf, &self.map, &self.kit, &hands, &self.library)?,
+        };
         let notes = perf
             .events
             .iter()

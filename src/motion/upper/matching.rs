@@ -119,16 +119,44 @@ fn dilate(r: &[u16]) -> Vec<u16> {
     (0..r.len()).map(|i| r[i] | if i > 0 { r[i - 1] } else { 0 } | if i + 1 < r.len() { r[i + 1] } else { 0 }).collect()
 }
 
+/// What the search needs of a library besides its clips, made once per library: it was
+/// checked, and each clip's dilated masks and frames with onsets (the live motion stage plans
+/// 20 times a second over the same library).
+#[derive(Debug, Clone)]
+pub struct MatchIndex {
+    dilated: Vec<Vec<u16>>,
+    nonzero: Vec<Vec<u32>>,
+}
+
+impl MatchIndex {
+    /// Check `lib` and index it.
+    pub fn of(lib: &Library) -> Result<MatchIndex, LibraryError> {
+        lib.validate()?;
+        Ok(MatchIndex {
+            dilated: lib.clips.iter().map(|c| dilate(&c.roll)).collect(),
+            nonzero: lib.clips.iter().map(|c| nonzero_frames(&c.roll)).collect(),
+        })
+    }
+}
+
 /// The upper body and face for every frame of `roll` (bit masks, see `library::mask`).
 pub fn retrieve(
     lib: &Library,
     roll: &[u16],
     settings: &MatchSettings,
 ) -> Result<(Vec<UpperFrame>, MatchReport), LibraryError> {
-    lib.validate()?;
-    let dilated: Vec<Vec<u16>> = lib.clips.iter().map(|c| dilate(&c.roll)).collect();
-    let nonzero: Vec<Vec<u32>> = lib.clips.iter().map(|c| nonzero_frames(&c.roll)).collect();
-    let sparse = Sparse { dilated: &dilated, nonzero: &nonzero };
+    retrieve_indexed(lib, &MatchIndex::of(lib)?, roll, settings)
+}
+
+/// [`retrieve`] with the library's index made beforehand (by [`MatchIndex::of`] on `lib`).
+pub fn retrieve_indexed(
+    lib: &Library,
+    index: &MatchIndex,
+    roll: &[u16],
+    settings: &MatchSettings,
+) -> Result<(Vec<UpperFrame>, MatchReport), LibraryError> {
+    debug_assert_eq!(index.dilated.len(), lib.clips.len(), "an index of another library");
+    let sparse = Sparse { dilated: &index.dilated, nonzero: &index.nonzero };
     let qd = dilate(roll);
     let mut report = MatchReport::default();
     let mut start = 0;

@@ -24,4 +24,4 @@ pub mod matching;
 pub mod turn;
 
 pub use library::{Clip, Library, LibraryError, UpperFrame};
-pub use matching::{retrieve, MatchReport, MatchSettings};
+pub use matching::{retrieve, retrieve_indexed, MatchIndex, MatchReport, MatchSettings};
