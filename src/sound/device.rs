@@ -1,6 +1,7 @@
 //! Audio devices (cpal): hosts and their outputs, choosing a device and a stream config, and
 //! the running output stream that drives the real-time [`Renderer`] from the host's callback.
 
+use super::audio_clock::AudioClock;
 use super::denormals::with_flush_to_zero;
 use super::output::{OutputSettings, OutputStats, Renderer, TimedEvent};
 use super::{Engine, EngineSettings};
@@ -144,9 +145,14 @@ impl AudioOutput {
         let mut renderer = Renderer::new(engine, events, config.channels.into(), fs.into(), settings, stats.clone());
         let (cb_stats, err_stats) = (stats.clone(), stats.clone());
         let (err_tx, errors) = crossbeam_channel::bounded(16);
+        // Each block placed on the stream's own clock, not at the moment its callback woke.
+        let mut clock = AudioClock::new(fs.into());
+        let channels = usize::from(config.channels).max(1);
         let data = move |data: &mut [f32], info: &cpal::OutputCallbackInfo| {
             let entered = Instant::now();
-            with_flush_to_zero(|| renderer.render(data, entered));
+            let block = clock.block(entered, data.len() / channels);
+            cb_stats.clock_relocks.store(clock.relocks, Relaxed);
+            with_flush_to_zero(|| renderer.render(data, block));
             let ts = info.timestamp();
             cb_stats.output_latency_us.store((ts.playback - ts.callback).as_micros() as u64, Relaxed);
             let budget = Duration::from_secs_f64(data.len() as f64 / (f64::from(config.channels) * f64::from(fs)));

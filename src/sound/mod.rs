@@ -1,6 +1,7 @@
 //! Sound: modal membranes and plates excited by a Hertz contact, a limiter, WAV and audio out.
 //! This module knows nothing of rapier or MIDI: strikes arrive as contact messages.
 
+pub mod audio_clock;
 pub mod bank;
 pub mod bessel;
 pub mod contact;

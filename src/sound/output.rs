@@ -41,6 +41,8 @@ pub struct OutputStats {
     pub bad_messages: AtomicU64,
     /// Host-reported time from callback to playback, microseconds.
     pub output_latency_us: AtomicU64,
+    /// Times the audio clock re-locked after a jump (`audio_clock`: an xrun, a stall).
+    pub clock_relocks: AtomicU64,
 }
 
 /// How to run the output.
