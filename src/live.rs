@@ -333,7 +333,7 @@ impl Counters {
 
     fn report(&self, out: &OutputStats) -> String {
         format!(
-            "{} MIDI events, {} messages, {} dropped, {} late, {} bad, {} xruns, {} overloads",
+            "{} MIDI events, {} messages, {} dropped, {} late, {} bad, {} xruns, {} overloads, {} audio clock re-locks",
             self.input.received.load(Relaxed),
             self.messages.load(Relaxed),
             self.dropped(out),
@@ -341,6 +341,7 @@ impl Counters {
             out.bad_messages.load(Relaxed),
             out.xruns.load(Relaxed),
             out.overloads.load(Relaxed),
+            out.clock_relocks.load(Relaxed),
         )
     }
 }
