@@ -35,7 +35,11 @@ pub const PRIORITY: i32 = 1;
 
 /// Ask for real-time scheduling of the calling thread; `DRUMSIM_NO_REALTIME=1` declines it.
 pub fn raise_current_thread() -> Scheduling {
-    if std::env::var_os("DRUMSIM_NO_REALTIME").is_some_and(|v| v != "0") {
+    raise_unless(std::env::var_os("DRUMSIM_NO_REALTIME").is_some_and(|v| v != "0"))
+}
+
+fn raise_unless(declined: bool) -> Scheduling {
+    if declined {
         return Scheduling::Ordinary("DRUMSIM_NO_REALTIME is set".into());
     }
     raise(PRIORITY)
@@ -65,14 +69,17 @@ fn raise(_priority: i32) -> Scheduling {
 mod tests {
     use super::*;
 
-    /// Whatever the machine allows, the answer is a clear one, and declining works.
+    /// Whatever the machine allows, the answer is a clear one; declined, the thread stays
+    /// ordinary and says so.
     #[test]
     fn a_thread_is_raised_or_says_why_not() {
-        let s = std::thread::spawn(raise_current_thread).join().unwrap();
+        let s = std::thread::spawn(|| raise_unless(false)).join().unwrap();
         match &s {
             Scheduling::RealTime(p) => assert_eq!(*p, PRIORITY),
             Scheduling::Ordinary(why) => assert!(!why.is_empty()),
         }
         assert!(s.to_string().contains("priority"));
+        let declined = std::thread::spawn(|| raise_unless(true)).join().unwrap();
+        assert_eq!(declined, Scheduling::Ordinary("DRUMSIM_NO_REALTIME is set".into()));
     }
 }

@@ -50,16 +50,7 @@ impl AudioClock {
     /// A clock for a stream at `sample_rate_hz`; the loop is tuned to the length of the
     /// stream's first block.
     pub fn new(sample_rate_hz: f64) -> AudioClock {
-        let mut clock = AudioClock {
-            nominal: 1.0 / sample_rate_hz.max(1.0),
-            b: 0.0,
-            c: 0.0,
-            relock_s: 0.0,
-            state: None,
-            relocks: 0,
-        };
-        clock.tune(256);
-        clock
+        AudioClock { nominal: 1.0 / sample_rate_hz.max(1.0), b: 0.0, c: 0.0, relock_s: 0.0, state: None, relocks: 0 }
     }
 
     /// Loop gains for blocks of `frames` samples.
@@ -84,13 +75,17 @@ impl AudioClock {
                 let predicted = s.start_s + s.frames as f64 * s.rate;
                 let measured = entered.saturating_duration_since(s.base).as_secs_f64();
                 let e = measured - predicted;
-                if e.abs() > self.relock_s || s.frames == 0 {
+                if e.abs() > self.relock_s {
                     self.relocks += 1;
                     relock(entered)
                 } else {
                     s.start_s = predicted + self.b * e;
-                    s.rate += self.c * e / s.frames as f64;
-                    s.rate = s.rate.clamp(self.nominal * (1.0 - MAX_RATE_ERROR), self.nominal * (1.0 + MAX_RATE_ERROR));
+                    // An empty block moved no samples: nothing to learn of the rate.
+                    if s.frames > 0 {
+                        s.rate += self.c * e / s.frames as f64;
+                        let (lo, hi) = (self.nominal * (1.0 - MAX_RATE_ERROR), self.nominal * (1.0 + MAX_RATE_ERROR));
+                        s.rate = s.rate.clamp(lo, hi);
+                    }
                     s.frames = frames;
                     s
                 }
