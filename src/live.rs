@@ -333,7 +333,7 @@ impl Counters {
 
     fn report(&self, out: &OutputStats) -> String {
         format!(
-            "{} MIDI events, {} messages, {} dropped, {} late, {} bad, {} xruns, {} overloads, {} audio clock re-locks",
+            "{} MIDI events, {} messages, {} dropped, {} late, {} bad, {} xruns, {} overloads, audio clock re-locked {} times and stepped {}",
             self.input.received.load(Relaxed),
             self.messages.load(Relaxed),
             self.dropped(out),
@@ -342,6 +342,7 @@ impl Counters {
             out.xruns.load(Relaxed),
             out.overloads.load(Relaxed),
             out.clock_relocks.load(Relaxed),
+            out.clock_steps.load(Relaxed),
         )
     }
 }

@@ -92,11 +92,13 @@ pub fn run(opts: &ServerOptions) -> anyhow::Result<()> {
 fn report(counts: &NetCounts, audio: &AudioOutput) -> String {
     let s = &audio.stats;
     format!(
-        "{}, {} bad, {} dropped, {} xruns",
+        "{}, {} bad, {} dropped, {} xruns, audio clock re-locked {} times and stepped {}",
         counts.report(),
         s.bad_messages.load(Relaxed),
         s.dropped_events.load(Relaxed),
-        s.xruns.load(Relaxed)
+        s.xruns.load(Relaxed),
+        s.clock_relocks.load(Relaxed),
+        s.clock_steps.load(Relaxed)
     )
 }
 

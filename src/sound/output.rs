@@ -43,6 +43,8 @@ pub struct OutputStats {
     pub output_latency_us: AtomicU64,
     /// Times the audio clock re-locked after a jump (`audio_clock`: an xrun, a stall).
     pub clock_relocks: AtomicU64,
+    /// Times the audio clock moved its phase by a step too small to re-lock.
+    pub clock_steps: AtomicU64,
 }
 
 /// How to run the output.
