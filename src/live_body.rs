@@ -142,6 +142,8 @@ pub fn start(
     let (spent_tx, spent_rx) = crossbeam_channel::bounded::<Spent>(4);
     let (out_tx, out_rx) = crossbeam_channel::bounded::<BodyOut>(4096);
     let hands = show.is_some();
+    // Only an avatar needs the upper body planned.
+    window.plan_upper_body(hands);
     let (show_plans, show_feed) = match show {
         Some(s) => (Some(s.plans), Some((s.feed, s.stats))),
         None => (None, None),

@@ -108,6 +108,29 @@ pub fn perform_planned_indexed(
     library: &Library,
     index: &MatchIndex,
 ) -> Result<Planned, MotionError> {
+    planned_with(perf, map, kit, predicted, Some((library, index)))
+}
+
+/// What the simulated body plays from, and no more: the planned hands and the feet (the
+/// pedals' targets). The animation's hands, upper body and face are left at rest: no
+/// smoothing for the animation, no retrieval (the live physical drummer with nothing
+/// showing it plans this every 50 ms).
+pub fn perform_planned_for_body(
+    perf: &Performance,
+    map: &NoteMap,
+    kit: &Kit,
+    predicted: &[[Pose; 2]],
+) -> Result<Planned, MotionError> {
+    planned_with(perf, map, kit, predicted, None)
+}
+
+fn planned_with(
+    perf: &Performance,
+    map: &NoteMap,
+    kit: &Kit,
+    predicted: &[[Pose; 2]],
+    upper: Option<(&Library, &MatchIndex)>,
+) -> Result<Planned, MotionError> {
     let roll = piano_roll(perf, map);
     let frames = roll.len();
     if frames == 0 || perf.events.is_empty() {
@@ -135,6 +158,26 @@ pub fn perform_planned_indexed(
     };
     let assignment = plan::assign_hands(&notes, &tip, &AssignSettings::default());
     let planned = plan::plan_hands(predicted, FPS, &notes, &assignment, StrokeSettings::default());
+    let feet = super::feet::feet(perf, map, frames, &mut Rng::new(0), super::feet::home_for(kit));
+    let Some((library, index)) = upper else {
+        let motion = Motion {
+            fps: FPS,
+            frames: (0..frames)
+                .map(|f| MotionFrame {
+                    hands: [Pose::IDENTITY; 2],
+                    chest: Pose::IDENTITY,
+                    head: Pose::IDENTITY,
+                    feet: feet.feet[f],
+                    face: Vec::new(),
+                    hihat_openness: feet.openness[f],
+                })
+                .collect(),
+        };
+        let (dropped, hands) = (assignment.dropped, assignment.hands.clone());
+        let report =
+            MotionReport { frames, hand_notes: notes.len(), dropped, hands, retrieval: MatchReport::default() };
+        return Ok(Planned { motion, report, hands: planned, notes });
+    };
     // The animation's hands are planned the same way over the prediction smoothed where it
     // jumps (the body's targets keep the prediction itself: its strokes were tuned on it,
     // and smoothed ones made 1.8 times the stray contacts on eight validation takes).
@@ -144,8 +187,6 @@ pub fn perform_planned_indexed(
     let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
     let (mut upper, retrieval) = upper::retrieve_indexed(library, index, &masks, &MatchSettings::default())?;
     upper::turn::turn_toward_hands(&mut upper, &hands);
-    // Feet and hi-hat.
-    let feet = super::feet::feet(perf, map, frames, &mut Rng::new(0), super::feet::home_for(kit));
     let motion = Motion {
         fps: FPS,
         frames: (0..frames)

@@ -43,6 +43,9 @@ pub struct WindowMotion {
     pedal_before: Option<u8>,
     /// Events dropped because the window held [`MAX_EVENTS`].
     flooded: u64,
+    /// Plan the upper body, face and animation hands too (false: only what the simulated
+    /// body plays from, [`pipeline::perform_planned_for_body`]).
+    upper: bool,
 }
 
 /// One plan: motion at 60 fps from `start_s` (session clock).
@@ -108,7 +111,14 @@ impl WindowMotion {
             events: VecDeque::with_capacity(MAX_EVENTS),
             pedal_before: None,
             flooded: 0,
+            upper: true,
         }
+    }
+
+    /// Whether plans carry the upper body, face and animation hands (an avatar shows them),
+    /// or only what the simulated body plays from (the planned hands and the feet).
+    pub fn plan_upper_body(&mut self, upper: bool) {
+        self.upper = upper;
     }
 
     pub fn lookahead_s(&self) -> f64 {
@@ -169,6 +179,7 @@ impl WindowMotion {
         };
         let hands = pipeline::model_hands(&self.model, &perf, &self.map);
         let planned = match &self.index {
+            _ if !self.upper => pipeline::perform_planned_for_body(&perf, &self.map, &self.kit, &hands)?,
             Some(index) => {
                 pipeline::perform_planned_indexed(&perf, &self.map, &self.kit, &hands, &self.library, index)?
             }
@@ -228,5 +239,44 @@ mod tests {
         let _ = w.plan(10.0).unwrap();
         w.push(DrumEvent { time_s: 10.0, tick: 0, kind: DrumEventKind::NoteOn { note: 38, velocity: 90 } });
         assert_eq!(w.flooded(), 10_000 - MAX_EVENTS as u64);
+    }
+
+    /// A plan for the simulated body alone carries the same planned hands and feet as a
+    /// plan for an avatar (the body plays the same strokes, the pedals the same feet).
+    #[test]
+    fn a_body_only_plan_plays_what_the_full_plan_plays() {
+        let kit = Kit::builtin_default();
+        let map = NoteMap::builtin("gm").unwrap();
+        let library = crate::motion::pipeline::shipped_library().unwrap();
+        let (mut full, mut body) = (
+            WindowMotion::new(kit.clone(), map.clone(), HandModel::shipped(), library.clone(), 0.25),
+            WindowMotion::new(kit, map, HandModel::shipped(), library, 0.25),
+        );
+        body.plan_upper_body(false);
+        for (i, note) in [36u8, 42, 38, 42, 36, 42, 38, 46, 45, 43].iter().cycle().take(40).enumerate() {
+            let e = DrumEvent {
+                time_s: 0.5 + i as f64 * 0.11,
+                tick: i as u64,
+                kind: DrumEventKind::NoteOn { note: *note, velocity: 70 + (i % 5) as u8 * 10 },
+            };
+            full.push(e);
+            body.push(e);
+        }
+        let (a, b) = (full.plan(4.0).unwrap(), body.plan(4.0).unwrap());
+        assert_eq!(a.motion.frames.len(), b.motion.frames.len());
+        for (fa, fb) in a.motion.frames.iter().zip(&b.motion.frames) {
+            assert_eq!((fa.feet, fa.hihat_openness), (fb.feet, fb.hihat_openness));
+        }
+        for h in 0..2 {
+            assert!(a.hands.notes(h).count() > 5);
+            assert!(a.hands.notes(h).eq(b.hands.notes(h)));
+            for k in 0..200 {
+                let t = a.start_s + k as f64 * 0.0125;
+                assert_eq!(a.hands.tip(h, t), b.hands.tip(h, t));
+            }
+        }
+        // The full plan's animation moves its head; the body's leaves it at rest.
+        assert!(a.motion.frames.iter().any(|f| f.head != Pose::IDENTITY));
+        assert!(b.motion.frames.iter().all(|f| f.head == Pose::IDENTITY && f.face.is_empty()));
     }
 }

@@ -66,6 +66,8 @@ pub fn replay(
     let shape = TargetShape::of(&Drummer::new(kit, settings.clone())?);
     let planner = BodyPlanner::new(shape, kit, map);
     let mut window = WindowMotion::new(kit.clone(), map.clone(), model, library, s.lookahead_s);
+    // As live play with no avatar showing.
+    window.plan_upper_body(false);
     let first = planner.plan(&window.plan(0.0)?);
     // Body time tau is played at wall time tau + delay.
     let delay = s.lookahead_s - s.lead_s;
