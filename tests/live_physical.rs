@@ -90,11 +90,14 @@ fn a_groove_midi_take_played_live_is_struck_by_the_body_each_note_lookahead_afte
         got
     });
     armed.store(true, Ordering::Release);
-    let start = Instant::now();
+    let (start, cpu_before) = (Instant::now(), live.cpu_s());
     while progress.load(Ordering::Acquire) < total {
         assert!(start.elapsed() < Duration::from_secs(120), "JACK is not running the test client");
         thread::sleep(Duration::from_millis(100));
     }
+    // The whole process's share of a core while the take played (MIDI input, planner, body
+    // and out threads; its sound is the server's here).
+    let cpu = cpu_before.zip(live.cpu_s()).map(|(a, b)| 100.0 * (b - a) / start.elapsed().as_secs_f64());
     let (_, _, player) = client.deactivate().unwrap();
     let status = live.wait_exit(Duration::from_secs(30));
     assert!(status.success(), "drumsim live failed ({status}):\n{}", live.stderr());
@@ -138,13 +141,14 @@ fn a_groove_midi_take_played_live_is_struck_by_the_body_each_note_lookahead_afte
     let body = stderr.lines().find(|l| l.contains("body:")).unwrap_or_default().to_string();
     println!(
         "{TAKE}, first {PLAYED_S} s, lookahead {LOOKAHEAD_MS} ms: {} notes, {} contacts; recall {:.2} %, precision \
-         {:.2} %; contact - note: mean {:+.2} ms, sd {:.2} ms\n{body}",
+         {:.2} %; contact - note: mean {:+.2} ms, sd {:.2} ms; drumsim live used {} of a core\n{body}",
         notes.len(),
         contacts.len(),
         100.0 * recall,
         100.0 * precision,
         mean * 1e3,
-        sd * 1e3
+        sd * 1e3,
+        cpu.map_or("an unknown share".to_string(), |c| format!("{c:.0} %"))
     );
     if let Ok(path) = std::env::var("DRUMSIM_LIVE_PHYSICAL_JSON") {
         let rows: Vec<String> = contacts

@@ -80,6 +80,24 @@ pub struct Drumsim {
 }
 
 impl Drumsim {
+    /// CPU seconds the process has used so far, all its threads (utime + stime of
+    /// `/proc/PID/stat`; None where there is no /proc).
+    pub fn cpu_s(&self) -> Option<f64> {
+        let stat = std::fs::read_to_string(format!("/proc/{}/stat", self.child.id())).ok()?;
+        // Fields after the command's closing parenthesis: state is field 3, utime 14, stime 15.
+        let rest = &stat[stat.rfind(')')? + 2..];
+        let f: Vec<&str> = rest.split_whitespace().collect();
+        let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+        // Clock ticks a second (100 on Linux; `getconf` says where it is not).
+        let hz = Command::new("getconf")
+            .arg("CLK_TCK")
+            .output()
+            .ok()
+            .and_then(|o| String::from_utf8_lossy(&o.stdout).trim().parse::<f64>().ok())
+            .unwrap_or(100.0);
+        Some(ticks / hz.max(1.0))
+    }
+
     pub fn live(server: &JackServer, args: &[&str]) -> Drumsim {
         Drumsim::start(server, args, Stdio::null())
     }
