@@ -159,44 +159,31 @@ fn planned_with(
     let assignment = plan::assign_hands(&notes, &tip, &AssignSettings::default());
     let planned = plan::plan_hands(predicted, FPS, &notes, &assignment, StrokeSettings::default());
     let feet = super::feet::feet(perf, map, frames, &mut Rng::new(0), super::feet::home_for(kit));
-    let Some((library, index)) = upper else {
-        let motion = Motion {
-            fps: FPS,
-            frames: (0..frames)
-                .map(|f| MotionFrame {
-                    hands: [Pose::IDENTITY; 2],
-                    chest: Pose::IDENTITY,
-                    head: Pose::IDENTITY,
-                    feet: feet.feet[f],
-                    face: Vec::new(),
-                    hihat_openness: feet.openness[f],
-                })
-                .collect(),
-        };
-        let (dropped, hands) = (assignment.dropped, assignment.hands.clone());
-        let report =
-            MotionReport { frames, hand_notes: notes.len(), dropped, hands, retrieval: MatchReport::default() };
-        return Ok(Planned { motion, report, hands: planned, notes });
+    // The animation: hands planned the same way over the prediction smoothed where it jumps
+    // (the body's targets keep the prediction itself: its strokes were tuned on it, and
+    // smoothed ones made 1.8 times the stray contacts on eight validation takes), upper body
+    // and face by retrieval. None for the body alone: at rest.
+    let animated = match upper {
+        Some((library, index)) => {
+            let smoothed = plan::smooth::smooth_jumps(predicted);
+            let hands =
+                plan::plan_hands(&smoothed, FPS, &notes, &assignment, StrokeSettings::default()).sample(FPS, frames);
+            let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
+            let (mut upper, retrieval) = upper::retrieve_indexed(library, index, &masks, &MatchSettings::default())?;
+            upper::turn::turn_toward_hands(&mut upper, &hands);
+            Some((hands, upper, retrieval))
+        }
+        None => None,
     };
-    // The animation's hands are planned the same way over the prediction smoothed where it
-    // jumps (the body's targets keep the prediction itself: its strokes were tuned on it,
-    // and smoothed ones made 1.8 times the stray contacts on eight validation takes).
-    let smoothed = plan::smooth::smooth_jumps(predicted);
-    let hands = plan::plan_hands(&smoothed, FPS, &notes, &assignment, StrokeSettings::default()).sample(FPS, frames);
-    // Upper body and face.
-    let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
-    let (mut upper, retrieval) = upper::retrieve_indexed(library, index, &masks, &MatchSettings::default())?;
-    upper::turn::turn_toward_hands(&mut upper, &hands);
     let motion = Motion {
         fps: FPS,
         frames: (0..frames)
-            .map(|f| MotionFrame {
-                hands: hands[f],
-                chest: upper[f].chest,
-                head: upper[f].head,
-                feet: feet.feet[f],
-                face: upper[f].face.to_vec(),
-                hihat_openness: feet.openness[f],
+            .map(|f| {
+                let (hands, chest, head, face) = match &animated {
+                    Some((hands, upper, _)) => (hands[f], upper[f].chest, upper[f].head, upper[f].face.to_vec()),
+                    None => ([Pose::IDENTITY; 2], Pose::IDENTITY, Pose::IDENTITY, Vec::new()),
+                };
+                MotionFrame { hands, chest, head, feet: feet.feet[f], face, hihat_openness: feet.openness[f] }
             })
             .collect(),
     };
@@ -205,7 +192,7 @@ fn planned_with(
         hand_notes: notes.len(),
         dropped: assignment.dropped,
         hands: assignment.hands.clone(),
-        retrieval,
+        retrieval: animated.map(|a| a.2).unwrap_or_default(),
     };
     Ok(Planned { motion, report, hands: planned, notes })
 }

@@ -152,13 +152,14 @@ impl AudioOutput {
             let entered = Instant::now();
             clock.xrun_seen(cb_stats.xruns.load(Relaxed));
             let ts = info.timestamp();
-            // The host's word on this callback's lateness, up to a constant (`audio_clock`).
-            let told_late = (ts.callback.as_nanos() as f64 - ts.playback.as_nanos() as f64) * 1e-9;
-            let block = clock.block_told(entered, data.len() / channels, told_late);
+            // From callback to playback, s: the host's word on this callback's lateness (less
+            // is later), up to a constant (`audio_clock`), and the output's latency.
+            let ahead = (ts.playback.as_nanos() as f64 - ts.callback.as_nanos() as f64) * 1e-9;
+            let block = clock.block_told(entered, data.len() / channels, -ahead);
             cb_stats.clock_relocks.store(clock.relocks, Relaxed);
             cb_stats.clock_steps.store(clock.steps, Relaxed);
             with_flush_to_zero(|| renderer.render(data, block));
-            cb_stats.output_latency_us.store((ts.playback - ts.callback).as_micros() as u64, Relaxed);
+            cb_stats.output_latency_us.store((ahead.max(0.0) * 1e6) as u64, Relaxed);
             let budget = Duration::from_secs_f64(data.len() as f64 / (f64::from(config.channels) * f64::from(fs)));
             if entered.elapsed() > budget {
                 cb_stats.overloads.fetch_add(1, Relaxed);
