@@ -35,7 +35,13 @@ fn main() {
         }
         // UNTIL=S plays the first S seconds only (the notes after them are not counted).
         let until = std::env::var("UNTIL").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::INFINITY);
-        let take_ = play_with(&kit, &perf, &map, &planned, perf.notes_end_s.min(until) + 0.5, &settings).unwrap();
+        let mut take_ = play_with(&kit, &perf, &map, &planned, perf.notes_end_s.min(until) + 0.5, &settings).unwrap();
+        // Contacts after the cut-off belong to notes that are not counted.
+        let keep: Vec<bool> = take_.messages.iter().map(|m| (m.time_s as f64) < until).collect();
+        let mut it = keep.iter();
+        take_.messages.retain(|_| *it.next().unwrap());
+        let mut it = keep.iter();
+        take_.strikes.retain(|_| *it.next().unwrap());
         let wall = started.elapsed().as_secs_f64();
         let all: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < until).collect();
         let hand = all.clone();
@@ -75,6 +81,52 @@ fn main() {
             take_.max_energy_j,
             take_.finite
         );
+        }
+        if std::env::var_os("SPUR").is_some() {
+            // One JSON line per spurious contact and per missed note, for a split-wide tally.
+            let hand_notes = |h: usize| {
+                planned
+                    .hands
+                    .notes(h)
+                    .map(|n| (n.time_s, kit.pieces[n.piece].id.clone(), n.velocity))
+                    .collect::<Vec<_>>()
+            };
+            let hn = [hand_notes(0), hand_notes(1)];
+            let around = |h: usize, t: f64| {
+                let v = &hn[h];
+                let k = v.partition_point(|n| n.0 <= t);
+                let prev = k.checked_sub(1).map(|i| (1e3 * (v[i].0 - t), v[i].1.clone(), v[i].2));
+                let next = v.get(k).map(|n| (1e3 * (n.0 - t), n.1.clone(), n.2));
+                (prev, next)
+            };
+            for &k in &spurious {
+                let (s, m) = (&take_.strikes[k], &take_.messages[k]);
+                let base = m.piece.strip_suffix("_rim").unwrap_or(&m.piece);
+                let near = hand
+                    .iter()
+                    .filter(|o| o.piece == base)
+                    .map(|o| 1e3 * (m.time_s as f64 - o.time_s))
+                    .min_by(|a, b| a.abs().total_cmp(&b.abs()));
+                let (prev, next) = if s.side < 2 { around(s.side, m.time_s as f64) } else { (None, None) };
+                println!(
+                    "{}",
+                    serde_json::json!({"kind": "spur", "take": take, "t": m.time_s, "piece": m.piece, "side": s.side, "speed": m.speed_mps, "from_tip": s.from_tip_m, "near_ms": near, "prev": prev, "next": next})
+                );
+            }
+            for (o, _) in hand.iter().zip(&played).filter(|(_, p)| !**p) {
+                let near = take_
+                    .messages
+                    .iter()
+                    .filter(|m| m.piece == o.piece || m.piece.strip_suffix("_rim") == Some(o.piece.as_str()))
+                    .map(|m| 1e3 * (m.time_s as f64 - o.time_s))
+                    .min_by(|a, b| a.abs().total_cmp(&b.abs()));
+                let h = (0..2).find(|&h| hn[h].iter().any(|n| (n.0 - o.time_s).abs() < 1e-6 && n.1 == o.piece));
+                let (prev, _) = h.map_or((None, None), |h| around(h, o.time_s - 1e-6));
+                println!(
+                    "{}",
+                    serde_json::json!({"kind": "miss", "take": take, "t": o.time_s, "piece": o.piece, "zone": format!("{:?}", o.zone), "vel": o.velocity, "hand": h, "near_ms": near, "prev": prev})
+                );
+            }
         }
         if std::env::var_os("JSON").is_some() {
             // One line per take with everything a split-wide figure needs.

@@ -6,8 +6,13 @@
 //! not yet played, and with it every other unplayed note on that piece within
 //! [`DOUBLE_TRIGGER_S`] of that one: an e-kit's double triggers (cross-stick and head, head
 //! and rim, crosstalk) are one stroke.
+//!
+//! A pedal note (the kick, the hi-hat's foot chick) is the foot's, every other note a
+//! stick's: a foot's contact plays only pedal notes and a stick's only the others, and a
+//! hi-hat chick with a stick note on the hi-hat at the same instant are two strokes, not a
+//! double trigger (the stick's contact took both, and the chick's counted as spurious).
 
-use crate::interaction::ContactMessage;
+use crate::interaction::{ContactMessage, Limb};
 use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
 
 /// A contact and a note match within this, seconds (DESIGN.md section 5).
@@ -45,8 +50,11 @@ pub fn onsets(perf: &Performance, map: &NoteMap) -> Vec<Onset> {
     out
 }
 
-fn plays(contact: &str, onset: &Onset) -> bool {
-    contact == onset.piece || contact.strip_suffix("_rim") == Some(onset.piece.as_str())
+fn plays(contact: &ContactMessage, onset: &Onset) -> bool {
+    let piece = &contact.piece;
+    let foot = matches!(contact.limb, Limb::RightFoot | Limb::LeftFoot);
+    (piece == &onset.piece || piece.strip_suffix("_rim") == Some(onset.piece.as_str()))
+        && foot == (onset.zone == Zone::Pedal)
 }
 
 /// For each contact (in time order), the index of the note it played, or `None` (a contact
@@ -62,7 +70,7 @@ pub fn match_contacts(onsets: &[Onset], contacts: &[ContactMessage]) -> (Vec<Opt
         let near = |free: bool, played_by: &[Option<usize>]| {
             (lo..onsets.len())
                 .take_while(|&i| onsets[i].time_s <= t + HIT_WINDOW_S + 1e-6)
-                .filter(|&i| plays(&c.piece, &onsets[i]))
+                .filter(|&i| plays(c, &onsets[i]))
                 .filter(|&i| match played_by[i] {
                     None => free,
                     Some(other) => !free && contacts[other].piece != c.piece,
@@ -79,6 +87,7 @@ pub fn match_contacts(onsets: &[Onset], contacts: &[ContactMessage]) -> (Vec<Opt
                 if played_by[j].is_none()
                     && (onsets[j].time_s - t0).abs() <= DOUBLE_TRIGGER_S
                     && onsets[j].piece == onsets[i].piece
+                    && (onsets[j].zone == Zone::Pedal) == (onsets[i].zone == Zone::Pedal)
                 {
                     played_by[j] = Some(k);
                 }
@@ -92,13 +101,16 @@ pub fn match_contacts(onsets: &[Onset], contacts: &[ContactMessage]) -> (Vec<Opt
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::interaction::Limb;
 
     fn onset(t: f64, note: u8, piece: &str, zone: Zone) -> Onset {
         Onset { time_s: t, note, velocity: 100, piece: piece.into(), zone }
     }
 
     fn contact(t: f32, piece: &str) -> ContactMessage {
+        by(t, piece, Limb::LeftHand)
+    }
+
+    fn by(t: f32, piece: &str, limb: Limb) -> ContactMessage {
         ContactMessage {
             piece: piece.into(),
             time_s: t,
@@ -108,7 +120,7 @@ mod tests {
             y_m: 0.0,
             impulse_ns: 0.1,
             hardness: 1.0,
-            limb: Limb::LeftHand,
+            limb,
         }
     }
 
@@ -131,6 +143,22 @@ mod tests {
         assert_eq!(played, vec![true, true, true, false]);
         // 11 ms late is a miss.
         let (of, _) = match_contacts(&notes[2..3], &[contact(2.0111, "hihat")]);
+        assert_eq!(of, vec![None]);
+    }
+
+    #[test]
+    fn a_chick_and_a_stick_on_the_hihat_at_once_are_two_strokes() {
+        let notes = [onset(1.000, 44, "hihat", Zone::Pedal), onset(1.001, 42, "hihat", Zone::Bow)];
+        // Whichever lands first, each plays its own note.
+        let contacts = [by(1.0005, "hihat", Limb::RightHand), by(1.0008, "hihat", Limb::LeftFoot)];
+        let (of, played) = match_contacts(&notes, &contacts);
+        assert_eq!(of, vec![Some(1), Some(0)]);
+        assert_eq!(played, vec![true, true]);
+        // A stick on the hi-hat where only the foot was asked for is spurious, and so is a
+        // chick where only a stick note was.
+        let (of, played) = match_contacts(&notes[..1], &[by(1.0, "hihat", Limb::RightHand)]);
+        assert_eq!((of, played), (vec![None], vec![false]));
+        let (of, _) = match_contacts(&notes[1..], &[by(1.0, "hihat", Limb::LeftFoot)]);
         assert_eq!(of, vec![None]);
     }
 }
