@@ -258,7 +258,19 @@ impl PlannedHands {
         let n = &self.notes[hand][k].0;
         let (h, w) = self.stroke(hand, k, t);
         let on_line = add(n.point, scale(n.normal, h));
-        add(p, scale(sub(on_line, p), w))
+        let tip = add(p, scale(sub(on_line, p), w));
+        // Between two strokes on one piece the tip stays above the lower of their arcs (the
+        // rebound of the one, the preparation of the next): far from both hits the weights
+        // hand the tip back to the predicted one, which may pass through the head between
+        // two fast strokes; the stick then met the head early, or twice.
+        let ns = &self.notes[hand];
+        let i = ns.partition_point(|(m, _)| m.time_s <= t);
+        if i == 0 || i >= ns.len() || ns[i - 1].0.piece != ns[i].0.piece {
+            return tip;
+        }
+        let floor = self.stroke(hand, i - 1, t).0.min(self.stroke(hand, i, t).0);
+        let height = dot3(sub(tip, n.point), n.normal);
+        add(tip, scale(n.normal, (floor - height).max(0.0)))
     }
 
     /// The stick tip's *centre* as the simulated body should aim it at `t`: the planned tip
