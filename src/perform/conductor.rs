@@ -43,8 +43,8 @@ pub struct BodyState {
     t: f64,
 }
 
-/// What tip targets need of the drummer: its stick's bead and how far it is held from the
-/// tip. Copied out so that another thread can make targets for the body (live play).
+/// What tip targets need of the drummer: its stick's bead and how long it is from the tip to
+/// the butt. Copied out so that another thread can make targets for the body (live play).
 #[derive(Debug, Clone, Copy)]
 pub struct TargetShape {
     pub bead_m: f32,
@@ -54,7 +54,7 @@ pub struct TargetShape {
 impl TargetShape {
     pub fn of(drummer: &Drummer) -> TargetShape {
         let stick = &drummer.skel.stick;
-        TargetShape { bead_m: stick.radius_m, shaft_m: (stick.tip() - stick.grip).length() }
+        TargetShape { bead_m: stick.radius_m, shaft_m: (stick.tip() - stick.butt()).length() }
     }
 
     /// The tip targets of a plan.

@@ -220,6 +220,9 @@ const STRAY_SCORE: f64 = 10.0;
 const STRAY_LIFT_M: f32 = 0.006;
 const STRAY_LIFT_S: f64 = 0.04;
 
+/// A lift against a stray contact between strokes holds at most this long after it, s.
+const GAP_HOLD_S: f64 = 0.5;
+
 /// Share of a stroke's miss across its surface that corrects the hand's aim on that piece,
 /// and the largest correction, m.
 const BIAS_GAIN: f32 = 0.3;
@@ -426,9 +429,20 @@ impl Rehearsal {
             *tries += 1;
             let normal = c.drummer().surfaces()[x.surface].normal;
             let periods = self.aims[h].len();
+            // The stick stays lifted for the rest of the gap (an idle hand sank back onto
+            // what it had touched, again and again), easing back before the next stroke's
+            // preparation.
+            let next = ns.get(i).map_or(x.time_s + GAP_HOLD_S, |_| c.targets().planned().stroke_span(h, i).0);
             let offsets = c.targets_mut().offsets_mut(h, periods);
             let q1 = period_index(x.time_s).min(periods - 1);
+            let q2 = period_index(next.min(x.time_s + GAP_HOLD_S)).clamp(q1, periods - 1);
             lift(&mut offsets[period_index(x.time_s - STRAY_LIFT_S).min(q1)..=q1], normal);
+            let hold = q2 - q1;
+            for (j, o) in offsets[q1 + 1..=q2].iter_mut().enumerate() {
+                // Whole until the last few periods, then easing out.
+                let ramp = ((hold - j) as f32 / LEARN_TAPER).min(1.0);
+                *o = (*o + normal * (STRAY_LIFT_M * ramp)).clamp_length_max(MAX_OFFSET_M);
+            }
             return Some(x.time_s - STRAY_LIFT_S);
         }
         None

@@ -60,14 +60,15 @@ impl Default for TargetSettings {
 const SHELL_MIN_DEPTH_M: f32 = 0.05;
 
 /// Points along the shaft checked against a drum's head and hoop (about 4 cm apart on a
-/// stick held 30 cm from its tip).
-const SHAFT_SAMPLES: usize = 8;
+/// 41 cm stick).
+const SHAFT_SAMPLES: usize = 10;
 
 /// Tip targets for both hands, evaluated at any time.
 pub struct TipTargets {
     planned: PlannedHands,
     bead_m: f32,
-    /// From the tip to the grip along the stick, m.
+    /// From the tip to the butt along the stick, m (the grip is on the way: the butt behind
+    /// the hand struck the hi-hat and the toms as well as the shaft before it).
     shaft_m: f32,
     settings: TargetSettings,
     /// Per hand, the rehearsal's learned offset of the target at each task period (from
@@ -80,7 +81,7 @@ pub struct TipTargets {
 
 impl TipTargets {
     /// From the motion stage's plan: the same strokes, touching at the onset itself (no
-    /// dwell), aimed for a bead of radius `bead_m` on a stick held `shaft_m` from its tip.
+    /// dwell), aimed for a bead of radius `bead_m` on a stick `shaft_m` long from its tip to its butt.
     pub fn new(planned: &PlannedHands, bead_m: f32, shaft_m: f32, settings: TargetSettings) -> TipTargets {
         let planned = planned.with_settings(StrokeSettings { dwell_s: 0.0, ..StrokeSettings::default() });
         let pieces = [0, 1].into_iter().flat_map(|h| planned.notes(h).map(|n| n.piece + 1)).max().unwrap_or(0);
@@ -194,7 +195,7 @@ impl TipTargets {
         }
     }
 
-    /// Points along `target`'s stick from beside the tip to the grip.
+    /// Points along `target`'s stick from beside the tip to the butt.
     fn shaft_points(&self, target: &ArmTarget) -> impl Iterator<Item = Vector> + '_ {
         let (tip, dir) = (target.tip, target.dir);
         (1..=SHAFT_SAMPLES).map(move |k| tip - dir * (self.shaft_m * k as f32 / SHAFT_SAMPLES as f32))
@@ -203,7 +204,7 @@ impl TipTargets {
     /// Keep `target`'s stick [`TargetSettings::clearance_m`] off the hoop of `drum` (a ring
     /// tube just outside its head and a little above it, as the body's colliders build it):
     /// the bead pushed straight away from the ring's nearest point, then the whole stick
-    /// raised along the drum's normal until its shaft, from the tip to the grip, clears the
+    /// raised along the drum's normal until its shaft, from the tip to the butt, clears the
     /// ring too (a hand low by the drum's edge would otherwise lever the stick on the hoop as
     /// it lifts the tip).
     fn clear_hoop(&self, target: &mut ArmTarget, drum: &Surface) {
