@@ -265,7 +265,14 @@ impl PlannedHands {
         // two fast strokes; the stick then met the head early, or twice.
         let ns = &self.notes[hand];
         let i = ns.partition_point(|(m, _)| m.time_s <= t);
-        if i == 0 || i >= ns.len() || ns[i - 1].0.piece != ns[i].0.piece {
+        // Only where the two strokes' windows meet: across a longer gap the hand is
+        // elsewhere (a rack tom's plane, extended, held an idle hand 17 cm up for seconds).
+        let near = |j: usize| ns[j].0.time_s;
+        if i == 0
+            || i >= ns.len()
+            || ns[i - 1].0.piece != ns[i].0.piece
+            || near(i) - near(i - 1) > 2.0 * self.settings.window_s
+        {
             return tip;
         }
         let floor = self.stroke(hand, i - 1, t).0.min(self.stroke(hand, i, t).0);
