@@ -267,11 +267,10 @@ impl PlannedHands {
         let i = ns.partition_point(|(m, _)| m.time_s <= t);
         // Only where the two strokes' windows meet: across a longer gap the hand is
         // elsewhere (a rack tom's plane, extended, held an idle hand 17 cm up for seconds).
-        let near = |j: usize| ns[j].0.time_s;
         if i == 0
             || i >= ns.len()
             || ns[i - 1].0.piece != ns[i].0.piece
-            || near(i) - near(i - 1) > 2.0 * self.settings.window_s
+            || ns[i].0.time_s - ns[i - 1].0.time_s > 2.0 * self.settings.window_s
         {
             return tip;
         }
@@ -417,6 +416,30 @@ mod tests {
                 assert!(sub(tip, before.point).iter().all(|d| d.abs() < 1e-4), "{tip:?} vs {:?}", before.point);
             }
         }
+    }
+
+    #[test]
+    fn between_fast_strokes_on_one_drum_the_tip_stays_above_the_head() {
+        // The predicted hand below the head (a hand model's tip passing through it between
+        // two strokes); one hand, two soft notes 60 ms apart.
+        let pred: Vec<[Pose; 2]> = still(600)
+            .into_iter()
+            .map(|[l, r]| {
+                [Pose { pos: [l.pos[0], l.pos[1], 0.55], ..l }, Pose { pos: [r.pos[0], r.pos[1], 0.55], ..r }]
+            })
+            .collect();
+        let notes = [note(1.0, -0.15, 30), note(1.06, -0.15, 30)];
+        let a = crate::motion::plan::Assignment { hands: vec![Some(0); 2], merged: vec![false; 2], dropped: 0 };
+        let plan = plan_hands(&pred, 60.0, &notes, &a, StrokeSettings::default());
+        let height = |t: f64| plan.tip(0, t)[2] - 0.7;
+        // Above the head all the way between the fast pair, on the strokes' arcs.
+        for k in 1..60 {
+            let t = 1.0 + 0.001 * k as f64;
+            assert!(height(t) >= -1e-6, "{:.1} mm at {t:.3} s", height(t) * 1e3);
+        }
+        // Halfway the weights hand the tip back to the prediction (on the head here, its
+        // offset putting it on the strike point); the arcs keep it lifted.
+        assert!(height(1.03) > 0.005, "{:.1} mm halfway", height(1.03) * 1e3);
     }
 
     #[test]
