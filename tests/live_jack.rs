@@ -167,15 +167,16 @@ fn avatar_session(physical: bool) {
         let (note, velocity) = hands[i as usize % hands.len()];
         schedule.push((t, [0x99, note, velocity]));
         schedule.push((t + RATE / 20, [0x99, note, 0]));
-        played.push((note, velocity));
+        played.push((note, velocity, t));
         if i % 4 == 2 {
             schedule.push((t + RATE / 5, [0x99, 36, 100]));
             schedule.push((t + RATE / 5 + RATE / 20, [0x99, 36, 0]));
-            played.push((36, 100));
+            played.push((36, 100, t + RATE / 5));
         }
     }
     schedule.sort_by_key(|(t, _)| *t);
     let total = schedule.last().unwrap().0 + RATE;
+    let sent = schedule.len();
     let (client, armed, progress) = player("drumsim-avatar", schedule, 0);
     let receiver = vmc_receiver::python_osc().map(|python| {
         let out = dir.join("vmc.json");
@@ -252,32 +253,67 @@ fn avatar_session(physical: bool) {
             shown.push((s["piece"].as_str().unwrap().to_string(), s["at"].as_f64().unwrap(), f["t"].as_f64().unwrap()));
         }
     }
-    // Each note's strike with the velocity it was played at.
-    let mut strikes = Vec::new();
-    if physical {
-        // The body's contacts: each note's piece struck, in the order played (a stray
-        // contact or two of a stick settling may come between).
-        let mut at = 0;
-        for &(note, velocity) in &played {
-            let piece = match note {
-                38 => "snare",
-                48 => "tom1",
-                45 => "tom2",
-                42 => "hihat",
-                _ => "kick",
-            };
-            let found = shown[at..].iter().position(|s| s.0 == piece);
-            assert!(found.is_some_and(|k| k <= 1), "note {note} ({piece}) not struck next: {:?}", &shown[at..]);
-            at += found.unwrap();
-            strikes.push((shown[at].clone(), velocity));
-            at += 1;
+    // Each note's strike with the velocity it was played at: the strike of its piece at its
+    // time on the session clock. The clocks differ by an offset that drifts (under load the
+    // dummy driver's frames fall a few percent behind the wall clock the session runs on);
+    // notes are 0.2 s apart, the body's contacts within a few ms of their notes.
+    let piece_of = |note: u8| match note {
+        38 => "snare",
+        48 => "tom1",
+        45 => "tom2",
+        42 => "hihat",
+        _ => "kick",
+    };
+    let sent_s = |frame: u64| frame as f64 / RATE as f64;
+    // The notes in order from a first offset, each matched where the one before was.
+    let walk = |mut offset: f64| {
+        let (mut strikes, mut unstruck) = (Vec::new(), Vec::new());
+        for &(note, velocity, frame) in &played {
+            let due = sent_s(frame) + offset;
+            match shown.iter().find(|s| s.0 == piece_of(note) && (s.1 - due).abs() <= 0.05) {
+                Some(s) => {
+                    offset = s.1 - sent_s(frame);
+                    strikes.push((s.clone(), velocity));
+                }
+                None => unstruck.push((piece_of(note), due)),
+            }
         }
-        let stray = shown.len() - played.len();
-        println!("{} contacts shown for {} notes", shown.len(), played.len());
+        (strikes, unstruck)
+    };
+    let (strikes, unstruck) = shown
+        .iter()
+        .take(3)
+        .flat_map(|s| played.iter().take(3).map(move |n| s.1 - sent_s(n.2)))
+        .map(walk)
+        .max_by_key(|(strikes, _)| strikes.len())
+        .expect("no strike shown");
+    // JACK drops the MIDI a client gets in a cycle the server skips it (an xrun: CI's 2
+    // cores, drawing the page in software, saw 160 in 15 s); a note drumsim never received
+    // cannot be struck, and its summary counts what it received.
+    let summary = drumsim.stderr();
+    let received: usize = summary
+        .split(" MIDI events")
+        .next()
+        .and_then(|head| head.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no count of MIDI events in drumsim's summary:\n{summary}"));
+    let unreceived = sent.saturating_sub(received);
+    assert!(
+        unstruck.len() <= unreceived,
+        "notes not struck {unstruck:?} (drumsim received {received} of {sent} MIDI events); shown {shown:?}"
+    );
+    let stray = shown.len() - strikes.len();
+    println!(
+        "{} strikes shown for {} notes ({} unstruck, drumsim received {received} of {sent} MIDI events)",
+        shown.len(),
+        played.len(),
+        unstruck.len()
+    );
+    if physical {
+        // A stray contact or two of a stick settling may come between.
         assert!(stray <= 2, "{stray} contacts besides the notes: {shown:?}");
     } else {
-        assert_eq!(shown.len(), played.len(), "strikes shown {shown:?}");
-        strikes = shown.into_iter().zip(played.iter().map(|p| p.1)).collect();
+        assert_eq!(stray, 0, "strikes shown besides the notes: {shown:?}");
     }
     let (mut worst_late, mut worst_tip, mut worst_offset) = (0.0f64, 0.0f64, 0.0f64);
     for ((piece, at, t), velocity) in &strikes {
