@@ -163,6 +163,11 @@ fn eval_measures_a_render_against_its_midi_and_a_reference() {
     // Direct mode: every note sounds at its onset.
     assert_eq!(m["hits"]["recall"].as_f64(), Some(1.0));
     assert!(m["timing_ms"]["p95_abs"].as_f64().unwrap() < 1.0);
+    // Each note at its velocity's speed on the kit's map: the hi-hat chicks' (a foot closes
+    // the hat at 0.4 of it) are scaled back before ranking (0.993 without); only the
+    // cross-sticks' hoop clicks (0.7 of it) keep it under 1.
+    let spearman = m["velocity_speed_spearman"].as_f64().unwrap();
+    assert!(spearman > 0.995, "velocity-speed Spearman {spearman}");
     // The motion against itself: no distance.
     assert_eq!(m["hands"]["l1_m"].as_f64(), Some(0.0));
     assert_eq!(m["hands"]["dtw"].as_f64(), Some(0.0));

@@ -11,12 +11,16 @@
 //! - IPD: for contacts that carry their stroke's aim (physical renders), the distance from
 //!   the aimed strike point to the contact point, mm: mean and p95.
 //! - Velocity fidelity: Spearman correlation of each played note's velocity with its first
-//!   contact's speed.
+//!   contact's speed on the kit's speed map: a hi-hat chick closes at
+//!   [`crate::kit::CHICK_SPEED_SCALE`] of the map's speed by design (a foot is slower than a
+//!   stick), so the left foot's contacts are divided by it before they are
+//!   ranked with the sticks' and the beater's.
 
 use super::motion::{
     hand_onsets_s, mean_sd_median, motion_metrics, spearman, HitRates, IpdMm, MotionMetricError, MotionMetrics,
     TimingMs,
 };
+use crate::interaction::Limb;
 use crate::midi::{read_file, DrumEventKind, NoteMap, ReadOptions};
 use crate::motion::rig::HAND;
 use crate::motion::{Motion, MotionFrame, Pose};
@@ -67,6 +71,22 @@ struct Contact {
     note: Option<ContactNote>,
     #[serde(default)]
     aim_m: Option<[f64; 2]>,
+    /// The contact message's limb index (0 left hand .. 3 left foot).
+    #[serde(default)]
+    limb: Option<i32>,
+}
+
+impl Contact {
+    /// The speed the kit's speed map would give its note's velocity, had this contact
+    /// played it at the speed the note asked: a chick's speed scaled back up.
+    fn mapped_speed_mps(&self) -> f64 {
+        // The left foot plays only the hi-hat.
+        if self.limb.and_then(Limb::from_index) == Some(Limb::LeftFoot) {
+            self.speed_mps / crate::kit::CHICK_SPEED_SCALE as f64
+        } else {
+            self.speed_mps
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -233,7 +253,7 @@ pub fn run_eval(
         let (vel, speed): (Vec<f64>, Vec<f64>) = contacts
             .contacts
             .iter()
-            .filter_map(|c| c.note.as_ref().map(|n| (n, c.speed_mps)))
+            .filter_map(|c| c.note.as_ref().map(|n| (n, c.mapped_speed_mps())))
             .filter(|(n, _)| seen.insert((n.time_s.to_bits(), n.note)))
             .map(|(n, s)| (n.velocity as f64, s))
             .unzip();

@@ -178,7 +178,7 @@ impl Director {
             hardness: 1.0,
             limb,
         };
-        let foot_speed = if plan.zone == Zone::Pedal && plan.is_hihat { 0.4 } else { 1.0 };
+        let foot_speed = if plan.zone == Zone::Pedal && plan.is_hihat { crate::kit::CHICK_SPEED_SCALE } else { 1.0 };
         match (plan.zone, &plan.rim_piece) {
             (Zone::CrossStick, Some(rim)) => {
                 // The stick lies on the head and its shoulder clicks the hoop.

@@ -79,6 +79,12 @@ pub struct Zones {
     pub pedal: f32,
 }
 
+/// A hi-hat pedal note closes the hi-hat at this share of the stroke speed the kit's speed
+/// map gives its velocity: a foot is slower than a stick (direct mode and the simulated
+/// pedal alike; `drumsim eval` divides it out again to compare a chick's speed with the
+/// others').
+pub const CHICK_SPEED_SCALE: f32 = 0.4;
+
 /// How MIDI velocity becomes striking speed, and the striking masses.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StrikeSettings {

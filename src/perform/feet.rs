@@ -16,7 +16,7 @@
 //!   closed pedal data presses the top cymbal 3 mm onto the bottom one.
 
 use crate::body::pedals::{PedalBodies, PedalTarget, HIHAT_PRESS_M, MIN_CLOSING_NOTE_FREE_MPS};
-use crate::kit::Kit;
+use crate::kit::{Kit, CHICK_SPEED_SCALE};
 use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
 use crate::motion::feet::{FEET_HOME, PRESS_LIFT_M};
 use crate::motion::Motion;
@@ -25,9 +25,7 @@ use crate::motion::Motion;
 const PRESS_S: f64 = 0.030;
 /// Furthest the beater's target goes past the head, radians.
 const PRESS_RAD: f32 = 0.08;
-/// A hi-hat pedal note closes the hi-hat at this share of the kit's stroke speed for its
-/// velocity (a foot is slower than a stick, as in direct mode), and holds it shut this long.
-const CHICK_SPEED_SCALE: f32 = 0.4;
+/// A hi-hat pedal note holds the hi-hat shut this long.
 const CHICK_HOLD_S: f64 = 0.060;
 /// How long the foot takes to lift the hi-hat open before a chick, seconds.
 const CHICK_LIFT_S: f64 = 0.030;
