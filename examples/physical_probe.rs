@@ -33,6 +33,9 @@ fn main() {
         if let Some(a) = std::env::var("ATTEMPTS").ok().and_then(|v| v.parse().ok()) {
             settings.attempts = a;
         }
+        if let Some(a) = std::env::var("SNAP").ok().and_then(|v| v.parse().ok()) {
+            settings.snapshot_every = a;
+        }
         // UNTIL=S plays the first S seconds only (the notes after them are not counted).
         let until = std::env::var("UNTIL").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::INFINITY);
         let mut take_ = play_with(&kit, &perf, &map, &planned, perf.notes_end_s.min(until) + 0.5, &settings).unwrap();

@@ -12,7 +12,8 @@
 //!   stick never gets caught under the hi-hat or a crash on its way to strike it, and one
 //!   over a cymbal goes out past its edge before it heads below it; targets keep the bead
 //!   clear of pieces not being struck, and the whole stick clear of drum heads and hoops
-//!   and of the cymbals it lies over.
+//!   and of the cymbals it lies over; a stick whose tip is below a cymbal's plane and whose
+//!   hand is above it swings about its tip until its shaft passes outside the edge.
 
 use crate::body::ik::ArmTarget;
 use crate::body::model::Surface;
@@ -296,7 +297,34 @@ impl TipTargets {
                 let up = self.bead_m + s.clearance_m;
                 target.tip = p.center + p.normal * up + side(planar) * planar.length().max(reach);
             }
+            if !struck {
+                self.shaft_round(target, p);
+            }
         }
+    }
+
+    /// Swing `target`'s stick about its tip until its shaft passes plate `p` outside its
+    /// edge and the clearance, where the tip and the butt are on opposite sides of the
+    /// plate's plane and the shaft would cross it inside: a tip on a drum beside or under a
+    /// cymbal with the hand over the cymbal's plane lays the shaft across the plate (a left
+    /// hand's snare stroke by the hi-hat held the stick on the hat's edge, 10 mm into it,
+    /// then let it fall onto a ghost note at 5.7 m/s).
+    fn shaft_round(&self, target: &mut ArmTarget, p: &Surface) {
+        let reach = p.radius_m + self.settings.plate_clearance_m;
+        let butt = target.tip - target.dir * self.shaft_m;
+        let (ht, hb) = (p.height(target.tip), p.height(butt));
+        if ht * hb >= 0.0 {
+            return;
+        }
+        let crossing = target.tip + (butt - target.tip) * (ht / (ht - hb));
+        let radial = |v: Vector| (v - p.center).reject_from(p.normal);
+        let out = radial(crossing);
+        if out.length() >= reach {
+            return;
+        }
+        let side = out.try_normalize().or_else(|| radial(target.tip).try_normalize()).unwrap_or(p.u);
+        let edge = p.center + side * reach;
+        target.dir = (target.tip - edge).normalize_or(target.dir);
     }
 }
 
@@ -371,6 +399,36 @@ mod tests {
         let mut target = ArmTarget { tip: below, dir: Vector::Y };
         t.keep_out(0, 1.0, &mut target, Vector::new(0.10, 0.0, 0.95), [(0, &hihat)], &[0]);
         assert!((target.tip.z - below.z).abs() < 1e-6 && target.tip.x >= reach - 1e-5);
+    }
+
+    #[test]
+    fn a_stick_whose_tip_is_below_a_cymbal_and_hand_above_it_swings_round_its_edge() {
+        let t = targets();
+        let hihat = surface("hihat", Vector::new(0.0, 0.0, 1.0), 0.18, 0.02);
+        let reach = 0.18 + TargetSettings::default().plate_clearance_m;
+        // A snare stroke's tip beside the hi-hat and 20 cm below it, the hand up over the hat:
+        // the shaft crosses the cymbal 4 cm from its centre.
+        let tip = Vector::new(0.22, 0.0, 0.80);
+        let mut target = ArmTarget { tip, dir: -Vector::new(-0.20, 0.05, 0.22).normalize() };
+        let crossing = |target: &ArmTarget| {
+            let butt = target.tip - target.dir * 0.30;
+            let (ht, hb) = (target.tip.z - 1.0, butt.z - 1.0);
+            (ht * hb < 0.0).then(|| {
+                let x = target.tip + (butt - target.tip) * (ht / (ht - hb));
+                x.x.hypot(x.y)
+            })
+        };
+        assert!(crossing(&target).is_some_and(|r| r < 0.18), "the setup must cross the cymbal");
+        // Not striking the hi-hat (no notes): the stick swings about its tip, outside the edge.
+        t.keep_out(0, 1.0, &mut target, tip, [(0, &hihat)], &[0]);
+        assert_eq!(target.tip, tip, "the tip keeps its aim");
+        assert!(crossing(&target).is_none_or(|r| r >= reach - 1e-4), "crosses at {:?} m", crossing(&target));
+        assert!((target.dir.length() - 1.0).abs() < 1e-5);
+        // The same stick held over the cymbal's plane on both ends is left alone.
+        let level = ArmTarget { tip: Vector::new(0.22, 0.0, 1.05), dir: Vector::X };
+        let mut target = level;
+        t.keep_out(0, 1.0, &mut target, level.tip, [(0, &hihat)], &[0]);
+        assert_eq!(target, level);
     }
 
     #[test]
