@@ -48,7 +48,7 @@ pub struct PhysicalTake {
     pub replays: usize,
     pub rehearsed: usize,
     /// Why strokes were played again ([`super::rehearsal::Rehearsal::reasons`]).
-    pub reasons: [usize; 6],
+    pub reasons: [usize; 7],
 }
 
 /// Play `perf` as the motion stage `planned` it on `kit`, from the preroll until `end_s`
