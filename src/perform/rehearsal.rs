@@ -96,19 +96,19 @@ fn contact_error(
     Some((s.time_s - note.time_s, miss_m))
 }
 
-/// How much faster the judged contact's stick came down than the note's planned speed, as
-/// `ln(contact / planned)`: only for the tip's bead on the note's own surface (a hoop's
-/// contact is the shaft's, slower by where it touches).
+/// The judged contact's time and how much faster its stick came down than the note's
+/// planned speed, as `ln(contact / planned)`: only for the tip's bead on the note's own
+/// surface (a hoop's contact is the shaft's, slower by where it touches).
 pub fn speed_error(
     note: &HandNote,
     side: usize,
     strikes: &[Strike],
     piece_of: &[usize],
     reach_s: (f64, f64),
-) -> Option<f32> {
+) -> Option<(f64, f32)> {
     let s = judged_contact(note, side, strikes, piece_of, reach_s)?;
     let bead = s.from_tip_m < BEAD_CONTACT_M && piece_of[s.surface] == s.surface;
-    (bead && note.speed_mps > 0.0 && s.speed_mps > 0.0).then(|| (s.speed_mps / note.speed_mps).ln())
+    (bead && note.speed_mps > 0.0 && s.speed_mps > 0.0).then(|| (s.time_s, (s.speed_mps / note.speed_mps).ln()))
 }
 
 /// Judge note `note` of hand `side` from the stick's `strikes` (any order), `piece_of`
@@ -395,15 +395,11 @@ impl Rehearsal {
                     .map(|(ts, k)| (ts, surfaces[k].normal))
                     .collect();
                 // A stroke on time and on the point may still come down far too hard or soft.
-                let speed = speed_error(&n, h, recent, c.piece_of(), reach)
+                let off_speed = speed_error(&n, h, recent, c.piece_of(), reach)
                     .filter(|_| verdict == Verdict::Good)
-                    .filter(|e| e.abs() > SPEED_TOLERANCE_LN);
+                    .filter(|(_, e)| e.abs() > SPEED_TOLERANCE_LN);
+                let speed = off_speed.map(|(_, e)| e);
                 let good = verdict == Verdict::Good && strays.is_empty() && speed.is_none();
-                // When it came and how fast.
-                let speed_contact = speed.and_then(|e| {
-                    let (error_s, _) = contact_error(&n, h, recent, c.piece_of(), reach)?;
-                    Some((n.time_s + error_s, n.speed_mps * e.exp()))
-                });
                 if !self.biased[h][k] {
                     // The hand's aim on this piece learns from every stroke's first take.
                     self.biased[h][k] = true;
@@ -455,8 +451,8 @@ impl Rehearsal {
                         let (aims, sims) = (&self.aims[h], &self.sims[h]);
                         learn(offsets, verdict, &n, periods, aims, sims, s.tolerance_s);
                     }
-                    if let Some((contact_s, speed_mps)) = speed_contact {
-                        learn_speed(offsets, &n, contact_s, speed_mps, &self.aims[h], p1);
+                    if let Some((contact_s, e)) = off_speed {
+                        learn_speed(offsets, &n, contact_s, n.speed_mps * e.exp(), &self.aims[h], p1);
                         changed = true;
                     }
                     if !changed {
