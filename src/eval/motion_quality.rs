@@ -65,7 +65,8 @@ pub struct MotionQuality {
     pub deepest_arm_in_kit_m: f32,
     pub deepest_arm_in_kit_at: String,
     pub frames_arm_in_kit: usize,
-    /// Frames with a stick passing through a cymbal.
+    /// Frames with a stick through a cymbal (not a drum's hoop) by more than 1 cm, its
+    /// proxy measured as against a drum.
     pub frames_stick_through_cymbal: usize,
     /// Deepest knee, shin or foot inside a drum, m, where, and frames with one inside.
     pub deepest_leg_in_kit_m: f32,
@@ -104,11 +105,14 @@ struct Disc {
 }
 
 impl Disc {
-    /// True when segment `a`-`b` crosses the disc (its ends on opposite sides, the crossing
-    /// inside the radius).
-    fn crossed_by(&self, a: V3, b: V3) -> bool {
+    /// True when a stick (segment `a`-`b`, radius `r`) goes through the disc by more than
+    /// `tolerance`, as a drum's shell is measured: the segment crosses the disc inside its
+    /// radius and its shorter side reaches far enough past the plane that the stick's
+    /// surface is over `tolerance` beyond it. A tip resting on a cymbal it strikes (its end
+    /// on the plane) is not through it.
+    fn crossed_by(&self, a: V3, b: V3, r: f32, tolerance: f32) -> bool {
         let (ha, hb) = ((a - self.c).dot(&self.n), (b - self.c).dot(&self.n));
-        if ha * hb >= 0.0 {
+        if ha * hb >= 0.0 || ha.abs().min(hb.abs()) + r <= tolerance {
             return false;
         }
         let p = a + (b - a) * (ha / (ha - hb));
@@ -183,7 +187,7 @@ pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes:
     let discs: Vec<Disc> = kit
         .pieces
         .iter()
-        .filter(|p| p.kind == PieceKind::Plate)
+        .filter(|p| p.kind == PieceKind::Plate && !p.id.ends_with("_rim"))
         .map(|p| Disc { c: V3::from(p.position_m), n: V3::from(p.normal).normalize(), r: p.radius_m })
         .collect();
     let names: Vec<&str> = rig.bones.iter().map(|b| b.name.as_str()).collect();
@@ -271,7 +275,11 @@ pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes:
         if worst_kit > 0.01 {
             q.frames_arm_in_kit += 1;
         }
-        if arms.iter().filter(|a| a.name.ends_with("stick")).any(|a| discs.iter().any(|d| d.crossed_by(a.a, a.b))) {
+        if arms
+            .iter()
+            .filter(|a| a.name.ends_with("stick"))
+            .any(|a| discs.iter().any(|d| d.crossed_by(a.a, a.b, a.r, 0.01)))
+        {
             q.frames_stick_through_cymbal += 1;
         }
         // Knees, shins and feet against the drums.
@@ -414,12 +422,18 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_stick_passes_through_a_cymbal_only_across_its_disc() {
+    fn a_stick_passes_through_a_cymbal_only_across_its_disc_and_past_the_tolerance() {
         let d = Disc { c: V3::zeros(), n: V3::z(), r: 0.2 };
-        assert!(d.crossed_by(V3::new(0.1, 0.0, 0.05), V3::new(0.1, 0.0, -0.05)));
+        let through = |a: V3, b: V3| d.crossed_by(a, b, 0.008, 0.01);
+        assert!(through(V3::new(0.1, 0.0, 0.05), V3::new(0.1, 0.0, -0.05)));
         // Beside the edge, or lying above it.
-        assert!(!d.crossed_by(V3::new(0.3, 0.0, 0.05), V3::new(0.3, 0.0, -0.05)));
-        assert!(!d.crossed_by(V3::new(-0.1, 0.0, 0.01), V3::new(0.1, 0.0, 0.02)));
+        assert!(!through(V3::new(0.3, 0.0, 0.05), V3::new(0.3, 0.0, -0.05)));
+        assert!(!through(V3::new(-0.1, 0.0, 0.01), V3::new(0.1, 0.0, 0.02)));
+        // A tip on the cymbal it strikes, 1 mm under its plane: the stick's surface is 9 mm
+        // past it, within the 1 cm a proxy may overlap; 3 mm under, it is through.
+        let butt = V3::new(0.0, -0.3, 0.15);
+        assert!(!through(butt, V3::new(0.1, 0.0, -0.001)));
+        assert!(through(butt, V3::new(0.1, 0.0, -0.003)));
     }
 
     #[test]

@@ -77,6 +77,13 @@ fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// Across a long gap between two strokes on one drum, the tip's lowest height over it, m,
+/// and how far across the surface from the strokes' points the floor holds fully and where
+/// it has faded out (`PlannedHands::tip`).
+const HOVER_M: f32 = 0.03;
+const HOVER_OVER_M: f32 = 0.15;
+const HOVER_FADE_M: f32 = 0.3;
+
 /// Steepest a wrist stroke turns the stick from the predicted pose, radians.
 const MAX_WRIST_TURN: f32 = 1.3;
 
@@ -265,18 +272,28 @@ impl PlannedHands {
         // two fast strokes; the stick then met the head early, or twice.
         let ns = &self.notes[hand];
         let i = ns.partition_point(|(m, _)| m.time_s <= t);
-        // Only where the two strokes' windows meet: across a longer gap the hand is
-        // elsewhere (a rack tom's plane, extended, held an idle hand 17 cm up for seconds).
-        if i == 0
-            || i >= ns.len()
-            || ns[i - 1].0.piece != ns[i].0.piece
-            || ns[i].0.time_s - ns[i - 1].0.time_s > 2.0 * self.settings.window_s
-        {
+        if i == 0 || i >= ns.len() || ns[i - 1].0.piece != ns[i].0.piece {
             return tip;
         }
         let floor = self.stroke(hand, i - 1, t).0.min(self.stroke(hand, i, t).0);
         let height = dot3(sub(tip, n.point), n.normal);
-        add(tip, scale(n.normal, (floor - height).max(0.0)))
+        if ns[i].0.time_s - ns[i - 1].0.time_s <= 2.0 * self.settings.window_s {
+            return add(tip, scale(n.normal, (floor - height).max(0.0)));
+        }
+        // Across a longer gap the whole arc would hold an idle hand high (a rack tom's
+        // plane, extended, held one 17 cm up for seconds), but the predicted tip may sink
+        // through the head between slow soft strokes (a left hand's ghost notes 0.6-0.9 s
+        // apart, 1-3 cm inside the snare): over the drum the tip hovers at least
+        // `HOVER_M` above it, the floor fading out from `HOVER_OVER_M` to `HOVER_FADE_M`
+        // across the surface from both strokes' points.
+        let across = |point: [f32; 3]| {
+            let d = sub(tip, point);
+            let along = dot3(d, n.normal);
+            (dot3(d, d) - along * along).max(0.0).sqrt()
+        };
+        let lateral = across(ns[i - 1].0.point).min(across(ns[i].0.point));
+        let fade = 1.0 - mj(((lateral - HOVER_OVER_M) / (HOVER_FADE_M - HOVER_OVER_M)) as f64);
+        add(tip, scale(n.normal, (floor.min(HOVER_M) * fade - height).max(0.0)))
     }
 
     /// The stick tip's *centre* as the simulated body should aim it at `t`: the planned tip
@@ -440,6 +457,40 @@ mod tests {
         // Halfway the weights hand the tip back to the prediction (on the head here, its
         // offset putting it on the strike point); the arcs keep it lifted.
         assert!(height(1.03) > 0.005, "{:.1} mm halfway", height(1.03) * 1e3);
+    }
+
+    #[test]
+    fn between_slow_soft_strokes_on_one_drum_the_tip_hovers_over_it() {
+        // As above, but two ghost notes 0.8 s apart: longer than the strokes' windows.
+        let sunk = |z: f32| -> Vec<[Pose; 2]> {
+            still(600)
+                .into_iter()
+                .map(|[l, r]| [Pose { pos: [l.pos[0], l.pos[1], z], ..l }, Pose { pos: [r.pos[0], r.pos[1], z], ..r }])
+                .collect()
+        };
+        let notes = [note(1.0, -0.15, 20), note(1.8, -0.15, 20)];
+        let a = crate::motion::plan::Assignment { hands: vec![Some(0); 2], merged: vec![false; 2], dropped: 0 };
+        let plan = plan_hands(&sunk(0.55), 60.0, &notes, &a, StrokeSettings::default());
+        let height = |t: f64| plan.tip(0, t)[2] - 0.7;
+        // Never inside the drum, and HOVER_M above it midway (the prediction, offset onto
+        // the strike point at each note, sits on the head there).
+        for k in 1..800 {
+            let t = 1.0 + 0.001 * k as f64;
+            assert!(height(t) >= -1e-6, "{:.1} mm at {t:.3} s", height(t) * 1e3);
+        }
+        assert!((height(1.4) - HOVER_M).abs() < 1e-4, "{:.1} mm midway", height(1.4) * 1e3);
+        // A predicted hand that rises between the notes (10 cm midway) is left where it is.
+        let rising: Vec<[Pose; 2]> = sunk(0.55)
+            .into_iter()
+            .enumerate()
+            .map(|(f, [l, r])| {
+                let u = ((f as f32 / 60.0 - 1.0) / 0.8).clamp(0.0, 1.0);
+                let z = 0.55 + 0.1 * (std::f32::consts::PI * u).sin();
+                [Pose { pos: [l.pos[0], l.pos[1], z], ..l }, r]
+            })
+            .collect();
+        let lifted = plan_hands(&rising, 60.0, &notes, &a, StrokeSettings::default());
+        assert!((lifted.tip(0, 1.4)[2] - plan.tip(0, 1.4)[2] - (0.1 - HOVER_M)).abs() < 0.01);
     }
 
     #[test]
