@@ -4,9 +4,11 @@
 //! (within the last `memory` notes; older counts as "free"). A note costs the distance from
 //! the assigned hand's predicted tip to its strike point; a hand asked to play two notes
 //! faster than it can (`min_gap_s` on one piece, plus travel at `travel_mps` between
-//! pieces) pays `infeasible` per violation. The cheapest path wins; notes on it that still
-//! strike faster than a hand can (three notes at once for two hands) are dropped and
-//! counted, never played impossibly. A travel faster than `travel_mps` is allowed when no
+//! pieces) pays `infeasible` per violation, but for a rebound: a second stroke on the same
+//! piece at least `double_gap_s` after the first (a drag's or a double's, which the stick's
+//! bounce plays) pays `double_cost`, so a hand plays one where the other hand cannot take
+//! the note. The cheapest path wins; notes on it that still strike faster than a hand can
+//! (three notes at once for two hands) are dropped and counted, never played impossibly. A travel faster than `travel_mps` is allowed when no
 //! assignment avoids it (a drummer's hand can move faster than the usual pace). Two notes
 //! on one piece within `merge_s` (an e-kit's bow and bell, a flam's grace note on one pad)
 //! are one stroke: the later is `merged` into the earlier and shares its hand.
@@ -17,6 +19,10 @@ use super::HandNote;
 pub struct AssignSettings {
     /// Shortest time between two strokes of one hand on one piece, seconds.
     pub min_gap_s: f64,
+    /// Shortest time between a stroke and its rebound on the same piece (a drag, a double),
+    /// seconds, and what the DP pays for one.
+    pub double_gap_s: f64,
+    pub double_cost: f64,
     /// Extra time a hand needs to leave a piece for another, seconds, plus the distance at
     /// this speed.
     pub switch_s: f64,
@@ -34,6 +40,8 @@ impl Default for AssignSettings {
     fn default() -> Self {
         AssignSettings {
             min_gap_s: 0.035,
+            double_gap_s: 0.018,
+            double_cost: 5.0,
             switch_s: 0.030,
             travel_mps: 4.0,
             per_metre: 10.0,
@@ -57,15 +65,22 @@ fn dist(a: [f32; 3], b: [f32; 3]) -> f64 {
     a.iter().zip(&b).map(|(x, y)| ((x - y) as f64).powi(2)).sum::<f64>().sqrt()
 }
 
-/// Can one hand play `a` then `b`?
-fn feasible(a: &HandNote, b: &HandNote, s: &AssignSettings) -> bool {
-    let gap = b.time_s - a.time_s;
+/// What it costs one hand to play `a` then `b`: nothing at its usual pace, `double_cost`
+/// for a rebound on the same piece, `infeasible` for what it cannot do.
+fn pace_cost(a: &HandNote, b: &HandNote, s: &AssignSettings) -> f64 {
+    let gap = b.time_s - a.time_s + 1e-9;
     let need = if a.piece == b.piece {
         s.min_gap_s
     } else {
         s.min_gap_s.max(s.switch_s + dist(a.point, b.point) / s.travel_mps)
     };
-    gap + 1e-9 >= need
+    if gap >= need {
+        0.0
+    } else if a.piece == b.piece && gap >= s.double_gap_s {
+        s.double_cost
+    } else {
+        s.infeasible
+    }
 }
 
 const FREE: usize = usize::MAX;
@@ -137,10 +152,10 @@ fn assign_strokes(
         for (pi, &((h, k), cost, _)) in steps[i - 1].iter().enumerate() {
             // The same hand again: the other hand's last note stays (or is forgotten).
             let k_same = if k != FREE && i - k > s.memory { FREE } else { k };
-            let pen = if feasible(&notes[i - 1], &notes[i], s) { 0.0 } else { s.infeasible };
+            let pen = pace_cost(&notes[i - 1], &notes[i], s);
             put((h, k_same), cost + here(i, h) + pen, pi);
             // The other hand: it last played note k.
-            let pen = if k == FREE || feasible(&notes[k], &notes[i], s) { 0.0 } else { s.infeasible };
+            let pen = if k == FREE { 0.0 } else { pace_cost(&notes[k], &notes[i], s) };
             put((1 - h, i - 1), cost + here(i, 1 - h) + pen, pi);
         }
         steps.push(next);
@@ -154,14 +169,16 @@ fn assign_strokes(
         hands[i] = Some(h);
         at = parent;
     }
-    // Drop what a hand still cannot strike: two strokes closer than `min_gap_s` (keep the
-    // earlier). Travel faster than the usual pace is left to the hand.
+    // Drop what a hand still cannot strike: two strokes closer than `min_gap_s`, or than
+    // `double_gap_s` for a rebound on the same piece (keep the earlier). Travel faster than
+    // the usual pace is left to the hand.
     let mut last_of: [Option<usize>; 2] = [None, None];
     let mut dropped = 0;
     for i in 0..n {
         let Some(h) = hands[i] else { continue };
         if let Some(p) = last_of[h] {
-            if notes[i].time_s - notes[p].time_s + 1e-9 < s.min_gap_s {
+            let gap = if notes[i].piece == notes[p].piece { s.double_gap_s } else { s.min_gap_s };
+            if notes[i].time_s - notes[p].time_s + 1e-9 < gap {
                 hands[i] = None;
                 dropped += 1;
                 continue;
@@ -210,6 +227,28 @@ mod tests {
         assert_eq!(a.dropped, 0);
         let hands: Vec<usize> = a.hands.iter().map(|h| h.unwrap()).collect();
         assert!(hands.windows(2).all(|w| w[0] != w[1]), "{hands:?}");
+    }
+
+    #[test]
+    fn a_drag_under_a_busy_other_hand_is_a_rebound_of_one_hand() {
+        // Hi-hat eighths for the right hand; on the snare a grace note 25 ms before a
+        // backbeat: the right hand cannot leave the hi-hat that fast, so the left plays both,
+        // the backbeat as the grace note's rebound.
+        let mut notes: Vec<_> = (0..8).map(|k| note(k as f64 * 0.25, 1, -0.3)).collect();
+        notes.extend([note(0.475, 0, -0.1), note(0.5, 0, -0.1)]);
+        notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        let pred = |h: usize, _t: f64| if h == 1 { [-0.3, 0.4, 0.75] } else { [-0.1, 0.4, 0.75] };
+        let a = assign_hands(&notes, &pred, &AssignSettings::default());
+        assert_eq!(a.dropped, 0);
+        for (n, h) in notes.iter().zip(&a.hands) {
+            assert_eq!(*h, Some(if n.piece == 1 { 1 } else { 0 }), "{n:?}");
+        }
+        // 15 ms apart no stick bounces back in time (nor is it one stroke, as at 12 ms).
+        let mut notes: Vec<_> = (0..8).map(|k| note(k as f64 * 0.25, 1, -0.3)).collect();
+        notes.extend([note(0.485, 0, -0.1), note(0.5, 0, -0.1)]);
+        notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        let a = assign_hands(&notes, &pred, &AssignSettings::default());
+        assert_eq!(a.dropped, 1);
     }
 
     #[test]
