@@ -197,6 +197,23 @@ mod tests {
         HandNote { time_s: t, piece, point: [x, 0.4, 0.7], normal: [0.0, 0.0, 1.0], velocity: 90, speed_mps: 3.0 }
     }
 
+    /// `notes` sorted and assigned with the right hand predicted on the hi-hat (x = -0.3),
+    /// the left on the snare (x = -0.1).
+    fn hihat_right_snare_left(mut notes: Vec<HandNote>) -> (Vec<HandNote>, Assignment) {
+        notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        let pred = |h: usize, _t: f64| if h == 1 { [-0.3, 0.4, 0.75] } else { [-0.1, 0.4, 0.75] };
+        let a = assign_hands(&notes, &pred, &AssignSettings::default());
+        (notes, a)
+    }
+
+    /// No note dropped, the hi-hat's (piece 1) on the right hand, the rest on the left.
+    fn each_on_its_predicted_hand(notes: &[HandNote], a: &Assignment) {
+        assert_eq!(a.dropped, 0);
+        for (n, h) in notes.iter().zip(&a.hands) {
+            assert_eq!(*h, Some(if n.piece == 1 { 1 } else { 0 }), "{n:?}");
+        }
+    }
+
     #[test]
     fn each_note_goes_to_the_hand_predicted_nearest() {
         // Hi-hat (x = -0.3) eighths predicted for the right hand, snare (x = -0.1) backbeats
@@ -208,13 +225,8 @@ mod tests {
                 notes.push(note(k as f64 * 0.25, 0, -0.1));
             }
         }
-        notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
-        let pred = |h: usize, _t: f64| if h == 1 { [-0.3, 0.4, 0.75] } else { [-0.1, 0.4, 0.75] };
-        let a = assign_hands(&notes, &pred, &AssignSettings::default());
-        assert_eq!(a.dropped, 0);
-        for (n, h) in notes.iter().zip(&a.hands) {
-            assert_eq!(*h, Some(if n.piece == 1 { 1 } else { 0 }), "{n:?}");
-        }
+        let (notes, a) = hihat_right_snare_left(notes);
+        each_on_its_predicted_hand(&notes, &a);
     }
 
     #[test]
@@ -234,20 +246,15 @@ mod tests {
         // Hi-hat eighths for the right hand; on the snare a grace note 25 ms before a
         // backbeat: the right hand cannot leave the hi-hat that fast, so the left plays both,
         // the backbeat as the grace note's rebound.
-        let mut notes: Vec<_> = (0..8).map(|k| note(k as f64 * 0.25, 1, -0.3)).collect();
-        notes.extend([note(0.475, 0, -0.1), note(0.5, 0, -0.1)]);
-        notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
-        let pred = |h: usize, _t: f64| if h == 1 { [-0.3, 0.4, 0.75] } else { [-0.1, 0.4, 0.75] };
-        let a = assign_hands(&notes, &pred, &AssignSettings::default());
-        assert_eq!(a.dropped, 0);
-        for (n, h) in notes.iter().zip(&a.hands) {
-            assert_eq!(*h, Some(if n.piece == 1 { 1 } else { 0 }), "{n:?}");
-        }
+        let drag = |grace_s: f64| {
+            let mut notes: Vec<_> = (0..8).map(|k| note(k as f64 * 0.25, 1, -0.3)).collect();
+            notes.extend([note(grace_s, 0, -0.1), note(0.5, 0, -0.1)]);
+            hihat_right_snare_left(notes)
+        };
+        let (notes, a) = drag(0.475);
+        each_on_its_predicted_hand(&notes, &a);
         // 15 ms apart no stick bounces back in time (nor is it one stroke, as at 12 ms).
-        let mut notes: Vec<_> = (0..8).map(|k| note(k as f64 * 0.25, 1, -0.3)).collect();
-        notes.extend([note(0.485, 0, -0.1), note(0.5, 0, -0.1)]);
-        notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
-        let a = assign_hands(&notes, &pred, &AssignSettings::default());
+        let (_, a) = drag(0.485);
         assert_eq!(a.dropped, 1);
     }
 
