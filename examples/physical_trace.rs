@@ -1,13 +1,21 @@
 //! Trace one hand of the physical performance around a moment: the target's and the
 //! simulated tip's height over a piece, per task period, and the contacts.
 //! `cargo run --release --example physical_trace TAKE.mid TIME_S HAND PIECE [KIT]`.
+//! `STEPS=1`: every millisecond within 12 ms of TIME_S (`WIDE=S`: every 4 ms within S
+//! seconds) the target's, the kinematic and the simulated tip's heights; `JOINTS=1` adds
+//! each joint's error between the kinematic and the simulated layer and how fast each
+//! turns it (trunk, neck, head, left clavicle, shoulder, elbow, wrist, then the right arm's).
+//! `FEEDBACK`, `ITERS`, `HZ` override the drummer's HIMC feedback gain, solver iterations
+//! and PD natural frequency.
 
 use drumsim::body::sim::{DrummerSettings, Mode};
+use drumsim::body::skeleton::JOINTS;
 use drumsim::kit::Kit;
 use drumsim::midi::{read_file, NoteMap, ReadOptions};
 use drumsim::motion::hands::HandModel;
 use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
 use drumsim::perform::Conductor;
+use rapier3d::math::Rotation;
 use std::path::Path;
 
 fn main() {
@@ -24,9 +32,20 @@ fn main() {
     for n in planned.hands.notes(hand).filter(|n| (n.time_s - at).abs() < 0.3) {
         println!("note {:.3} s {} v{} speed {:.2} m/s", n.time_s, kit.pieces[n.piece].id, n.velocity, n.speed_mps);
     }
-    let mut c = Conductor::new(&kit, &perf, &map, &planned, DrummerSettings::default()).unwrap();
+    let mut ds = DrummerSettings::default();
+    if let Some(f) = std::env::var("FEEDBACK").ok().and_then(|v| v.parse().ok()) {
+        ds.feedback = f;
+    }
+    if let Some(f) = std::env::var("ITERS").ok().and_then(|v| v.parse().ok()) {
+        ds.solver_iterations = f;
+    }
+    if let Some(f) = std::env::var("HZ").ok().and_then(|v| v.parse().ok()) {
+        ds.natural_hz = f;
+    }
+    let mut c = Conductor::new(&kit, &perf, &map, &planned, ds).unwrap();
     let k = c.drummer().surfaces().iter().position(|s| &s.id == piece).expect("piece");
     let mut deepest = 0.0f32;
+    let mut last: Option<([Rotation; JOINTS], [Rotation; JOINTS])> = None;
     while c.time_s() < at + 0.15 {
         if std::env::var_os("SANK").is_some() && c.drummer().max_penetration_m() > deepest + 0.001 {
             // Each new deepest penetration of a stick, as it happens (the whole take up to T).
@@ -41,8 +60,12 @@ fn main() {
         }
         let mut hits = Vec::new();
         let fine = std::env::var_os("STEPS").is_some();
+        // WIDE=S: the steps S either side of TIME_S, every 4 ms (default 12 ms, every 1 ms).
+        let wide: f64 = std::env::var("WIDE").ok().and_then(|v| v.parse().ok()).unwrap_or(0.012);
+        let every = if wide > 0.012 { 40 } else { 10 };
+        let joints = std::env::var_os("JOINTS").is_some();
         c.period_observed(&mut |s| hits.push(s), &mut |d, t, tg| {
-            if fine && (t - at).abs() < 0.012 && ((t * 1e4).round() as i64) % 10 == 0 {
+            if fine && (t - at).abs() < wide && ((t * 1e4).round() as i64) % every == 0 {
                 let s = &d.surfaces()[k];
                 let tip = d.tips(Mode::Himc)[hand];
                 let kin = d.tips(Mode::Ik)[hand];
@@ -54,6 +77,21 @@ fn main() {
                     d.max_limit_excess,
                     d.worst_limit_joint
                 );
+                if joints {
+                    // Each joint's error (kinematic against simulated, degrees) and how fast
+                    // each layer turns it (degrees per ms, since the last line).
+                    let (kj, sj) = (*d.kinematic_joints(), d.sim_joints());
+                    let deg = |a: Rotation, b: Rotation| (a * b.inverse()).to_scaled_axis().length().to_degrees();
+                    let per_ms = 1e-3 / (every as f64 * 1e-4);
+                    let line = |f: &dyn Fn(usize) -> f64| (0..kj.len()).map(|j| format!("{:5.1}", f(j))).collect::<String>();
+                    println!("      error       {}", line(&|j| deg(kj[j], sj[j]) as f64));
+                    if let Some((pk, ps)) = last.as_ref() {
+                        let (pk, ps): (&[Rotation; JOINTS], &[Rotation; JOINTS]) = (pk, ps);
+                        println!("      kinematic   {}", line(&|j| deg(kj[j], pk[j]) as f64 * per_ms));
+                        println!("      simulated   {}", line(&|j| deg(sj[j], ps[j]) as f64 * per_ms));
+                    }
+                    last = Some((kj, sj));
+                }
             }
         });
         let t = c.time_s();
