@@ -49,9 +49,10 @@ pub struct MotionQuality {
     /// Bone-frames turning more than 45 degrees, and by bone.
     pub turns_over_45: usize,
     pub turns_over_45_by_bone: std::collections::BTreeMap<String, usize>,
-    /// Largest wrist travel between consecutive frames, m, and wrist-frames over 6 cm and
-    /// over 10 cm (a pop across the kit).
+    /// Largest wrist travel between consecutive frames, m, where, and wrist-frames over 6 cm
+    /// and over 10 cm (a pop across the kit).
     pub max_wrist_step_m: f32,
+    pub max_wrist_step_at: String,
     pub wrist_steps_over_6cm: usize,
     pub wrist_steps_over_10cm: usize,
     /// Deepest stick, hand or arm proxy inside the torso or a thigh, m, where, and frames
@@ -215,7 +216,8 @@ pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes:
                 let step = (w[HAND[side]].0 - pw[HAND[side]].0).norm();
                 q.wrist_steps_over_6cm += usize::from(step > 0.06);
                 q.wrist_steps_over_10cm += usize::from(step > 0.10);
-                q.max_wrist_step_m = q.max_wrist_step_m.max(step);
+                let wrist = ["left wrist", "right wrist"][side];
+                set_max(&mut q.max_wrist_step_m, &mut q.max_wrist_step_at, step, || at(wrist));
             }
         }
         // Proxies.
@@ -410,7 +412,7 @@ impl MotionQuality {
             other.deepest_leg_in_kit_m,
             &other.deepest_leg_in_kit_at,
         );
-        self.max_wrist_step_m = self.max_wrist_step_m.max(other.max_wrist_step_m);
+        take(&mut self.max_wrist_step_m, &mut self.max_wrist_step_at, other.max_wrist_step_m, &other.max_wrist_step_at);
         self.ghost_lifts.extend_from_slice(&other.ghost_lifts);
         self.accent_lifts.extend_from_slice(&other.accent_lifts);
         self.finish();
