@@ -5,8 +5,8 @@
 //! seconds) the target's, the kinematic and the simulated tip's heights; `JOINTS=1` adds
 //! each joint's error between the kinematic and the simulated layer and how fast each
 //! turns it (trunk, neck, head, left clavicle, shoulder, elbow, wrist, then the right arm's).
-//! `FEEDBACK`, `ITERS`, `HZ` override the drummer's HIMC feedback gain, solver iterations
-//! and PD natural frequency.
+//! `FEEDBACK`, `ITERS`, `HZ`, `ZETA` override the drummer's HIMC feedback gain, solver
+//! iterations, PD natural frequency and damping ratio.
 
 use drumsim::body::sim::{DrummerSettings, Mode};
 use drumsim::body::skeleton::JOINTS;
@@ -41,6 +41,9 @@ fn main() {
     }
     if let Some(f) = std::env::var("HZ").ok().and_then(|v| v.parse().ok()) {
         ds.natural_hz = f;
+    }
+    if let Some(f) = std::env::var("ZETA").ok().and_then(|v| v.parse().ok()) {
+        ds.damping_ratio = f;
     }
     let mut c = Conductor::new(&kit, &perf, &map, &planned, ds).unwrap();
     let k = c.drummer().surfaces().iter().position(|s| &s.id == piece).expect("piece");
@@ -102,10 +105,11 @@ fn main() {
             let on: Vec<&str> = c.drummer().touching(hand).map(|k| c.drummer().surfaces()[k].id.as_str()).collect();
             print!("{on:?} ");
             println!(
-                "t {t:.3} target h {:+6.1} mm sim h {:+6.1} mm  planar {:5.1} mm {}",
+                "t {t:.3} target h {:+6.1} mm sim h {:+6.1} mm  planar {:5.1} mm (target {:5.1}) {}",
                 s.height(target) * 1e3,
                 s.height(tip) * 1e3,
                 ((tip - s.center) - s.normal * s.height(tip)).length() * 1e3,
+                ((target - s.center) - s.normal * s.height(target)).length() * 1e3,
                 hits.iter()
                     .map(|h| format!(
                         "[{} {} {:.3} s {:.2} m/s]",
