@@ -9,7 +9,7 @@ use crate::motion::Pose;
 /// Standard deviation of the Gaussian the poses are smoothed with, frames. At 1.5 frames a
 /// right hand's accent still whipped its grip 12-20 cm a frame and turned it 40-78 degrees
 /// between two frames; at 3.5, on 21 validation takes, the hands' turns over 45 degrees
-/// fell from 33 to 1 and wrist steps over 6 cm from 404 to 161 (arms in the body 418 ->
+/// fell from 32 to 1 and wrist steps over 6 cm from 404 to 161 (arms in the body 418 ->
 /// 451 frames).
 pub const SMOOTH_SIGMA_FRAMES: f32 = 3.5;
 /// A grip moving further than this between two frames is a jump, m.

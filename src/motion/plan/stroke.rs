@@ -212,7 +212,7 @@ impl PlannedHands {
         let s = &self.settings;
         let n = &self.notes[hand][k].0;
         let (before, after) = self.windows(hand, k);
-        let d = s.dwell_s.min(0.5 * before).min(0.5 * after);
+        let d = self.dwell(before, after);
         let v = (n.velocity.clamp(1, 127) as f32 / 127.0).powf(1.5);
         let lift = s.lift_m.0 + (s.lift_m.1 - s.lift_m.0) * v;
         let dt = t - n.time_s;
@@ -226,6 +226,12 @@ impl PlannedHands {
         let h = if lift > 0.0 { lift * (speed * tau as f32 / lift).tanh() } else { 0.0 };
         let w = 0.5 * (1.0 + (std::f64::consts::PI * (tau / span.max(1e-9)).min(1.0)).cos()) as f32;
         (h, w)
+    }
+
+    /// How long the tip rests on the surface either side of an onset whose windows are
+    /// `before` and `after` (at most half of either).
+    fn dwell(&self, before: f64, after: f64) -> f64 {
+        self.settings.dwell_s.min(0.5 * before).min(0.5 * after)
     }
 
     /// Note `k`'s preparation and rebound windows: half the time to its neighbours, at most
@@ -269,13 +275,14 @@ impl PlannedHands {
         let n = &self.notes[hand][k].0;
         let (h, w) = self.stroke(hand, k, t);
         let on_line = add(n.point, scale(n.normal, h));
-        let tip = self.braked(hand, t, add(p, scale(sub(on_line, p), w)));
+        // `i`: the hand's next note after `t`.
+        let ns = &self.notes[hand];
+        let i = ns.partition_point(|(m, _)| m.time_s <= t);
+        let tip = self.braked(hand, i, t, add(p, scale(sub(on_line, p), w)));
         // Between two strokes on one piece the tip stays above the lower of their arcs (the
         // rebound of the one, the preparation of the next): far from both hits the weights
         // hand the tip back to the predicted one, which may pass through the head between
         // two fast strokes; the stick then met the head early, or twice.
-        let ns = &self.notes[hand];
-        let i = ns.partition_point(|(m, _)| m.time_s <= t);
         if i == 0 || i >= ns.len() || ns[i - 1].0.piece != ns[i].0.piece {
             return tip;
         }
@@ -300,8 +307,8 @@ impl PlannedHands {
         add(tip, scale(n.normal, (floor.min(HOVER_M) * fade - height).max(0.0)))
     }
 
-    /// `tip` held under the height from which the stick can still brake to its next
-    /// note's speed: within that note's preparation window the tip is at most
+    /// `tip` held under the height from which the stick can still brake to the speed of
+    /// note `k`, the hand's next: within that note's preparation window the tip is at most
     /// `speed * tau + brake / 2 * tau^2` above the surface (`tau` the time left before the
     /// touch; the stroke's own arc is under it) over the later half of the window, eased in
     /// over the earlier half (none where the window opens), and fading out across the
@@ -309,18 +316,15 @@ impl PlannedHands {
     /// a predicted tip held high brought a soft stroke down at 3 m/s to brake a few
     /// millimetres over the head, which no stick does: it met the head 10-20 ms early,
     /// several times as hard as its note.
-    fn braked(&self, hand: usize, t: f64, tip: [f32; 3]) -> [f32; 3] {
-        let ns = &self.notes[hand];
-        let k = ns.partition_point(|(m, _)| m.time_s <= t);
-        let Some((n, _)) = ns.get(k) else { return tip };
+    fn braked(&self, hand: usize, k: usize, t: f64, tip: [f32; 3]) -> [f32; 3] {
+        let Some((n, _)) = self.notes[hand].get(k) else { return tip };
         let (_, w) = self.stroke(hand, k, t);
         let (before, after) = self.windows(hand, k);
-        let d = self.settings.dwell_s.min(0.5 * before).min(0.5 * after);
-        let tau = (n.time_s - d - t).max(0.0) as f32;
+        let tau = (n.time_s - self.dwell(before, after) - t).max(0.0) as f32;
         let ceiling = n.speed_mps * tau + 0.5 * BRAKE_MPS2 * tau * tau;
-        let d = sub(tip, n.point);
-        let height = dot3(d, n.normal);
-        let lateral = (dot3(d, d) - height * height).max(0.0).sqrt();
+        let off = sub(tip, n.point);
+        let height = dot3(off, n.normal);
+        let lateral = (dot3(off, off) - height * height).max(0.0).sqrt();
         let fade = 1.0 - mj(((lateral - HOVER_OVER_M) / (HOVER_FADE_M - HOVER_OVER_M)) as f64);
         // Eased in: no ceiling where the window opens, the whole of it at the touch.
         let ceiling = ceiling / ((2.0 * w).min(1.0) * fade).max(1e-6);
