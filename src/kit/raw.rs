@@ -25,9 +25,9 @@ struct RawKit {
 }
 
 /// Oscillators per piece when the kit does not say: membranes, plates.
-const DEFAULT_MAX_MODES: [usize; 2] = [1024, 256];
+const DEFAULT_MAX_MODES: [usize; 2] = [1024, 2048];
 /// `stretch` when the kit does not say: membranes, plates.
-const DEFAULT_STRETCH: [f32; 2] = [1.0, 0.0];
+const DEFAULT_STRETCH: [f32; 2] = [1.0, 1.0];
 
 /// Exactly three numbers: serde's arrays let a fourth through unseen.
 fn three<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {

@@ -5,6 +5,8 @@
 //! so that one chunk's recursion runs while the other's waits on its multiply. Chunks of eight modes that have
 //! decayed below audibility sleep until the next strike.
 
+use super::stress::Stress;
+
 /// Modes per chunk.
 pub const LANES: usize = 8;
 /// Eight modes, one per lane.
@@ -53,6 +55,11 @@ pub struct Bank {
     /// still moves the surface stays awake (snare wires listen to the head's motion).
     silent_output: f32,
     keep_moving: bool,
+    /// A plate's von Karman stress ([`Stress`]), whether it runs now, and its largest level
+    /// since the last sleep check.
+    stress: Option<Box<Stress>>,
+    stressed: bool,
+    stress_most: f32,
 }
 
 /// The modes run uncoupled once the stretch stiffens them by less than this (a frequency
@@ -97,7 +104,16 @@ impl Bank {
             silent_output: SILENT_OUTPUT,
             keep_moving: true,
             stretch_most: 0.0,
+            stress: None,
+            stressed: false,
+            stress_most: 0.0,
         }
+    }
+
+    /// Make the bank a plate with in-plane stress (see [`Stress`]); its modes run coupled
+    /// after a strike hard enough for it to matter.
+    pub fn set_stress(&mut self, stress: Stress) {
+        self.stress = Some(Box::new(stress));
     }
 
     /// Make the bank nonlinear: mode k adds `w[k] y_k^2` to the stretch s, and each sample
@@ -121,6 +137,14 @@ impl Bank {
 
     /// After the state was set (a strike): recompute the stretch and run coupled if it matters.
     pub fn wake_stretch(&mut self) {
+        if let Some(stress) = &mut self.stress {
+            if stress.wake(&self.y1, &self.y2) {
+                // The stress drives every mode, asleep or not.
+                self.stressed = true;
+                self.active.fill(true);
+                self.stress_most = self.stress_most.max(stress.level());
+            }
+        }
         if self.stretch_w.is_empty() {
             return;
         }
@@ -185,7 +209,9 @@ impl Bank {
         while i < out.len() {
             let to_check = (SLEEP_CHECK - self.clock % SLEEP_CHECK) as usize;
             let end = out.len().min(i + to_check);
-            if self.coupled {
+            if self.stressed {
+                self.process_stressed(&mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]));
+            } else if self.coupled {
                 self.process_coupled(&mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]));
                 self.process_segment(&mut out[i..end], None, acc, self.coupled_chunks);
             } else {
@@ -197,7 +223,12 @@ impl Bank {
                     self.coupled = false;
                 }
                 self.stretch_most = 0.0;
-                for c in 0..self.active.len() {
+                if self.stressed && self.stress.as_ref().is_some_and(|s| self.stress_most < s.off()) {
+                    self.stressed = false;
+                }
+                self.stress_most = 0.0;
+                // While the stress runs it drives every mode: none sleeps.
+                for c in 0..if self.stressed { 0 } else { self.active.len() } {
                     if self.active[c] {
                         self.sleep_if_silent(c);
                     }
@@ -305,6 +336,23 @@ impl Bank {
         }
         self.stretch = stretch;
         self.stretch_most = self.stretch_most.max(most);
+    }
+
+    /// Every chunk a sample at a time, coupled through the plate's stress.
+    fn process_stressed(&mut self, out: &mut [f32], mut centre: Option<&mut [f32]>) {
+        let Some(stress) = self.stress.as_mut() else {
+            return;
+        };
+        let mut most = 0.0f32;
+        for (s, o) in out.iter_mut().enumerate() {
+            let (sum, level) = stress.step(&self.a1, &self.a2, &self.gain, &mut self.y1, &mut self.y2);
+            *o += sum;
+            most = most.max(level);
+            if let Some(centre) = centre.as_deref_mut() {
+                centre[s] = (0..LANES).map(|l| self.centre[l] * self.y1[0][l]).sum();
+            }
+        }
+        self.stress_most = self.stress_most.max(most);
     }
 
     fn process_first_with_centre(&mut self, acc: &mut [Lane], centre: &mut [f32]) {

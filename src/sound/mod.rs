@@ -13,6 +13,7 @@ pub mod limiter;
 pub mod modes;
 pub mod net_feed;
 pub mod output;
+pub mod stress;
 pub mod voice;
 pub mod wav;
 pub mod wires;

@@ -55,6 +55,9 @@ pub struct ModeSet {
     /// sharp, falls in pitch and leaves the stick sooner); a cymbal's modes trade energy
     /// (its wash). 0: linear.
     pub stretch: f64,
+    /// A plate's in-plane stress constant (von Karman, [`super::stress::Stress`]): Berger's
+    /// constant of the plate, whose `stretch` is then 0. 0: linear.
+    pub stress: f64,
     /// J_m(x) for every order the modes have, tabulated every [`BESSEL_STEP`] in x up to the
     /// largest radial wavenumber (row m starts at m * `bessel_len`), so a strike finds a
     /// thousand mode shapes without evaluating a Bessel function.
@@ -158,7 +161,12 @@ impl ModeSet {
             PieceKind::Membrane => (MYLAR_E_OVER_RHO, MYLAR_POISSON),
             PieceKind::Plate => (BRONZE_E_OVER_RHO, BRONZE_POISSON),
         };
-        let stretch = piece.stretch as f64 * e_over_rho * rho_s / (2.0 * PI * a * a * (1.0 - poisson));
+        let berger = piece.stretch as f64 * e_over_rho * rho_s / (2.0 * PI * a * a * (1.0 - poisson));
+        // A head's stretch is its tension's (Berger); a plate's is the von Karman stress.
+        let (stretch, stress) = match piece.kind {
+            PieceKind::Membrane => (berger, 0.0),
+            PieceKind::Plate => (0.0, berger),
+        };
         let m_max = modes.iter().map(|m| m.m).max().unwrap_or(0);
         let x_max = modes.iter().map(|m| m.zero).fold(0.0, f64::max);
         let bessel_len = (x_max / BESSEL_STEP).ceil() as usize + 2;
@@ -170,7 +178,16 @@ impl ModeSet {
                 bessel[m * bessel_len + i] = *j as f32;
             }
         }
-        ModeSet { modes, radius_m: piece.radius_m as f64, kind: piece.kind, contact_modes, stretch, bessel, bessel_len }
+        ModeSet {
+            modes,
+            radius_m: piece.radius_m as f64,
+            kind: piece.kind,
+            contact_modes,
+            stretch,
+            stress,
+            bessel,
+            bessel_len,
+        }
     }
 
     /// Mode shape of mode `k` at the point (x, y) metres from the centre; 0 outside the surface.

@@ -5,6 +5,7 @@
 use super::bank::{Bank, Lane, LANES};
 use super::contact::{damped, run_contact, ContactReport, ContactScratch, ModalState, StrikeInput, MAX_CONTACT_S};
 use super::modes::ModeSet;
+use super::stress::Stress;
 use super::wires::WireRattle;
 use super::Strike;
 use crate::kit::Piece;
@@ -95,6 +96,18 @@ impl Voice {
                 .fold(f64::MAX, f64::min);
             bank.set_stretch(&w, &c, max as f32, coupled, stiffness);
             max_stretch = max as f32;
+        }
+        if modes.stress > 0.0 {
+            let column = |f: fn(&super::modes::Mode) -> f64| modes.modes.iter().map(f).collect::<Vec<f64>>();
+            let seed = piece.id.bytes().fold(0u64, |h, b| h.wrapping_mul(0x100_0000_01B3) ^ b as u64);
+            bank.set_stress(Stress::new(
+                &column(|m| m.mass_kg),
+                &column(|m| m.freq_hz),
+                &column(|m| m.slope2),
+                modes.stress,
+                sample_rate_hz as f64,
+                seed,
+            ));
         }
         let lanes = |v: &[f32]| {
             let mut out = vec![[0.0f32; LANES]; n.div_ceil(LANES)];
