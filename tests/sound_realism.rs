@@ -183,6 +183,29 @@ fn cymbals_and_hihats_are_as_bright_as_recorded_ones() {
 }
 
 #[test]
+fn a_hard_hit_cymbal_tail_is_a_wash_not_a_gong() {
+    // Spectral flatness 0.5-1 s after a hit at 127 (near 0: a few clean partials; recorded
+    // crashes 0.03-0.15): within half to twice the recorded range. Not the open hi-hat,
+    // whose recorded sizzle (0.24-0.42) is its two cymbals touching (README, "Not yet").
+    let a = ours("default");
+    let mut lines = Vec::new();
+    for name in ["crash bow", "ride bow", "china bow"] {
+        let ours = our_hit(a, name, 127).tail_flatness.expect("a tail");
+        let rec = recorded(name, 127, |m| m.tail_flatness);
+        let (lo, hi) = span(&rec);
+        let (what, ok) = check(&format!("{name}: tail flatness"), ours, &rec, lo / 2.0, hi);
+        lines.push((format!("{what} [{ours:.4}]"), ok));
+    }
+    // ... and a soft hit stays nearer a ring: the wash grows with the hit.
+    for name in ["crash bow", "crash edge", "china bow"] {
+        let (soft, hard) = (our_hit(a, name, 40).tail_flatness, our_hit(a, name, 127).tail_flatness);
+        let (soft, hard) = (soft.expect("a tail"), hard.expect("a tail"));
+        lines.push((format!("{name}: tail flatness at 40 {soft:.4} < at 127 {hard:.4}"), soft < hard));
+    }
+    assert_all(lines);
+}
+
+#[test]
 fn hihats_and_crash_decay_like_recorded_ones() {
     let a = ours("default");
     let mut lines = Vec::new();
