@@ -3,6 +3,8 @@
 //! - "modal bank": one [`Bank`] of N ringing modes processing 512-sample blocks, beside a naive
 //!   scalar reference (one mode at a time, a two-pole recursion summed into the output per
 //!   sample). Throughput is in mode-samples.
+//! - "stressed plate": the same bank of 1,024 modes running coupled through a plate's in-plane
+//!   stress ([`Stress`]), as a cymbal does after a hard hit.
 //! - "render 60 s": a 60-second Groove MIDI beat scored and rendered in direct mode through the
 //!   functions `drumsim render` uses, into a sink that only checks the samples.
 //! - "one strike": the Hertz contact of one snare and one crash strike.
@@ -16,6 +18,7 @@ use drumsim::midi::NoteMap;
 use drumsim::render::{render_events, score_file, RenderOptions, SAMPLE_RATE_HZ};
 use drumsim::sound::bank::{Bank, Lane, LANES};
 use drumsim::sound::denormals::with_flush_to_zero;
+use drumsim::sound::stress::Stress;
 use drumsim::sound::voice::Voice;
 use drumsim::sound::Strike;
 use std::collections::BTreeMap;
@@ -83,6 +86,23 @@ fn ringing_bank(modes: usize) -> Bank {
     bank
 }
 
+/// Modes of the stressed plate.
+const STRESSED_MODES: usize = 1024;
+
+/// [`ringing_bank`] as a bronze plate struck hard: the stress runs (and, undamped, never
+/// stops).
+fn stressed_bank(modes: usize) -> Bank {
+    let mut bank = ringing_bank(modes);
+    let freq: Vec<f64> = (0..modes).map(|k| 50.0 * (320.0f64).powf(k as f64 / modes as f64)).collect();
+    let slope2: Vec<f64> = freq.iter().map(|f| 0.06 * f).collect();
+    bank.set_stress(Stress::new(&vec![0.2; modes], &freq, &slope2, 5e8, SAMPLE_RATE_HZ as f64, 1));
+    for k in 0..modes {
+        bank.set_state(k, 2e-5, 0.0);
+    }
+    bank.wake_stretch();
+    bank
+}
+
 /// The naive reference: each mode's recursion run over the block, one mode at a time.
 #[derive(Clone, Copy)]
 struct NaiveMode {
@@ -135,6 +155,19 @@ fn modal_bank(c: &mut Criterion) {
             })
         });
     }
+    group.throughput(Throughput::Elements((STRESSED_MODES * BLOCK) as u64));
+    let mut bank = stressed_bank(STRESSED_MODES);
+    let mut acc: Vec<Lane> = vec![[0.0; LANES]; BLOCK];
+    let mut out = vec![0.0f32; BLOCK];
+    group.bench_function(BenchmarkId::new("stressed plate", STRESSED_MODES), |b| {
+        b.iter_custom(|iters| {
+            timed("stressed", iters, || {
+                out.fill(0.0);
+                bank.process(&mut out, None, &mut acc);
+                black_box(&mut out);
+            })
+        })
+    });
     group.finish();
 }
 
@@ -222,6 +255,13 @@ fn summary(audio_s: Option<f64>) {
                 naive / bank
             );
         }
+    }
+    if let (Some(stressed), Some(free)) = (median_s("stressed"), median_s(&format!("bank/{STRESSED_MODES}"))) {
+        println!(
+            "stressed plate, {STRESSED_MODES} modes: {:.3} ns per mode-sample, {:.1}x the free bank",
+            stressed * 1e9 / (STRESSED_MODES * BLOCK) as f64,
+            stressed / free
+        );
     }
     if let (Some(audio_s), Some(wall)) = (audio_s, median_s("render")) {
         println!("render 60 s ({SONG}): {audio_s:.1} s of audio in {wall:.3} s, {:.0}x real time", audio_s / wall);
