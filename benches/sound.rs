@@ -12,6 +12,7 @@
 //! `cargo bench --bench sound` ends with a summary: ns per mode-sample, the ratio to the naive
 //! reference, and the render's real-time factor (audio seconds per wall second, one core).
 
+use criterion::measurement::WallTime;
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput};
 use drumsim::kit::Kit;
 use drumsim::midi::NoteMap;
@@ -130,18 +131,8 @@ fn modal_bank(c: &mut Criterion) {
     group.sample_size(SAMPLES).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(1));
     for modes in MODE_COUNTS {
         group.throughput(Throughput::Elements((modes * BLOCK) as u64));
-        let mut bank = ringing_bank(modes);
-        let mut acc: Vec<Lane> = vec![[0.0; LANES]; BLOCK];
+        bench_bank(&mut group, BenchmarkId::new("bank", modes), &format!("bank/{modes}"), ringing_bank(modes));
         let mut out = vec![0.0f32; BLOCK];
-        group.bench_function(BenchmarkId::new("bank", modes), |b| {
-            b.iter_custom(|iters| {
-                timed(&format!("bank/{modes}"), iters, || {
-                    out.fill(0.0);
-                    bank.process(&mut out, None, &mut acc);
-                    black_box(&mut out);
-                })
-            })
-        });
         let mut naive: Vec<NaiveMode> = coefficients(modes)
             .into_iter()
             .map(|(a1, a2, gain)| NaiveMode { a1, a2, gain, y1: 1e-3, y2: 0.0 })
@@ -156,19 +147,28 @@ fn modal_bank(c: &mut Criterion) {
         });
     }
     group.throughput(Throughput::Elements((STRESSED_MODES * BLOCK) as u64));
-    let mut bank = stressed_bank(STRESSED_MODES);
+    bench_bank(
+        &mut group,
+        BenchmarkId::new("stressed plate", STRESSED_MODES),
+        "stressed",
+        stressed_bank(STRESSED_MODES),
+    );
+    group.finish();
+}
+
+/// Time `bank` over blocks of [`BLOCK`] samples, kept for the summary as `name`.
+fn bench_bank(group: &mut criterion::BenchmarkGroup<'_, WallTime>, id: BenchmarkId, name: &str, mut bank: Bank) {
     let mut acc: Vec<Lane> = vec![[0.0; LANES]; BLOCK];
     let mut out = vec![0.0f32; BLOCK];
-    group.bench_function(BenchmarkId::new("stressed plate", STRESSED_MODES), |b| {
+    group.bench_function(id, |b| {
         b.iter_custom(|iters| {
-            timed("stressed", iters, || {
+            timed(name, iters, || {
                 out.fill(0.0);
                 bank.process(&mut out, None, &mut acc);
                 black_box(&mut out);
             })
         })
     });
-    group.finish();
 }
 
 fn gmd_path() -> PathBuf {

@@ -334,13 +334,15 @@ fn eight_identical_snare_hits_are_not_a_machine_gun() {
     assert!(spread <= 1.5, "eight snare hits span {spread:.2} dB in level");
 }
 
-/// The strokes whose first 50 ms brighten from velocity 20 to 64 to 127. The others (toms
-/// 1 and 2, closed and open hi-hat, ride edge and bell, splash bell, rim shot and
-/// cross-stick) do not yet (README, "Not yet").
-const BRIGHTER_WHEN_HARDER: [&str; 14] = [
+/// The strokes whose first 50 ms brighten from velocity 20 to 64 to 127 (the hi-hats by
+/// their in-plane stress). The others (toms 1 and 2, ride edge and bell, splash bell, rim
+/// shot and cross-stick) do not yet (README, "Not yet").
+const BRIGHTER_WHEN_HARDER: [&str; 16] = [
     "kick",
     "snare",
     "floor_tom",
+    "hihat closed",
+    "hihat open",
     "hihat half-open edge",
     "hihat pedal",
     "crash bow",

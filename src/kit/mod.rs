@@ -49,9 +49,10 @@ pub struct Piece {
     pub areal_density_kg_m2: f32,
     pub max_hz: f32,
     pub max_modes: usize,
-    /// How much the surface stiffens as it stretches under large motion (Berger's
-    /// approximation), as a multiple of its material's: polyester film for a membrane, B20
-    /// bronze for a plate (1.0); 0 is linear (an ideal membrane, a gong-like plate).
+    /// How much the surface stiffens as it stretches under large motion, as a multiple of
+    /// its material's: polyester film for a membrane (Berger's approximation: its tension),
+    /// B20 bronze for a plate (the von Karman in-plane stress: the wash) (1.0); 0 is linear
+    /// (an ideal membrane, a gong-like plate).
     pub stretch: f32,
     /// Plates: f ~ (m + 2n)^chladni_exponent.
     pub chladni_exponent: f32,

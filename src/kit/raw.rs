@@ -233,7 +233,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Kit, KitError> {
                 1.0,
                 8192.0,
             )? as usize,
-            // Heads stretch as polyester film does; plates are linear unless the kit says.
+            // Heads stretch as polyester film does, plates as bronze does (their in-plane stress).
             stretch: c.range(&key("stretch"), p.stretch.unwrap_or(DEFAULT_STRETCH[kind as usize]), 0.0, 1000.0)?,
             chladni_exponent: c.range(&key("chladni_exponent"), p.chladni_exponent.unwrap_or(1.4), 1.0, 2.5)?,
             hertz_k: c.range(&key("hertz_k"), p.hertz_k, 1e4, 1e12)?,

@@ -135,7 +135,8 @@ impl Bank {
         (self.stretch_w, self.stretch_c) = (lanes(w), lanes(c));
     }
 
-    /// After the state was set (a strike): recompute the stretch and run coupled if it matters.
+    /// After the state was set (a strike): recompute the stretch or the plate's stress and run
+    /// coupled if it matters.
     pub fn wake_stretch(&mut self) {
         if let Some(stress) = &mut self.stress {
             if stress.wake(&self.y1, &self.y2) {

@@ -52,8 +52,8 @@ pub struct ModeSet {
     /// is its mean, (1 / 2A) integral |grad w|^2 = (1 / 2A) sum slope2_k q_k^2). The stretch
     /// energy is stretch / 4 (sum slope2 q^2)^2 and pulls mode k back with
     /// stretch (sum slope2 q^2) slope2_k q_k: a membrane's tension rises (a hard hit starts
-    /// sharp, falls in pitch and leaves the stick sooner); a cymbal's modes trade energy
-    /// (its wash). 0: linear.
+    /// sharp, falls in pitch and leaves the stick sooner). Heads only (a plate's is
+    /// [`ModeSet::stress`]); 0: linear.
     pub stretch: f64,
     /// A plate's in-plane stress constant (von Karman, [`super::stress::Stress`]): Berger's
     /// constant of the plate, whose `stretch` is then 0. 0: linear.

@@ -375,13 +375,13 @@ mod tests {
         let (before, after, _, _, _) = run(0.0, AMP, 4_800);
         let high = |e: &[f64]| e[16..].iter().sum::<f64>();
         assert!(high(&after) < 1e-12 * before.iter().sum::<f64>());
-        // Stressed: a tenth or more of the energy passes above the struck band within 0.1 s,
-        // and the total stays what the strike gave (the stress energy is the small rest).
+        // Stressed: a third or more of the energy passes above the struck band within 0.1 s,
+        // and the total, modes and stress, stays what the strike gave to 1 %.
         let (_, after, e0, e1, most) = run(STRETCH, AMP, 4_800);
         eprintln!("high {:.3e} of {e1:.3e}, from {e0:.3e}, most {most:.3e}", high(&after));
-        assert!(high(&after) > 0.1 * e1, "{:.3e} of {e1:.3e} above the struck modes", high(&after));
-        assert!((e1 / e0 - 1.0).abs() < 0.05, "energy {e0:.4e} -> {e1:.4e}");
-        assert!(most < 1.05 * e0, "energy rose to {most:.4e} from {e0:.4e}");
+        assert!(high(&after) > 0.3 * e1, "{:.3e} of {e1:.3e} above the struck modes", high(&after));
+        assert!((e1 / e0 - 1.0).abs() < 0.01, "energy {e0:.4e} -> {e1:.4e}");
+        assert!(most < 1.01 * e0, "energy rose to {most:.4e} from {e0:.4e}");
     }
 
     #[test]
