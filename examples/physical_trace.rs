@@ -5,6 +5,9 @@
 //! seconds) the target's, the kinematic and the simulated tip's heights; `JOINTS=1` adds
 //! each joint's error between the kinematic and the simulated layer and how fast each
 //! turns it (trunk, neck, head, left clavicle, shoulder, elbow, wrist, then the right arm's).
+//! Each period's line starts with how far the target's stick direction turned since the
+//! period before (degrees; in brackets the same before the keep-out swings it round a
+//! cymbal) and its share along the piece's normal (+: the stick points up from the piece).
 //! `FEEDBACK`, `ITERS`, `HZ`, `ZETA` override the drummer's HIMC feedback gain, solver
 //! iterations, PD natural frequency and damping ratio.
 
@@ -49,6 +52,8 @@ fn main() {
     let k = c.drummer().surfaces().iter().position(|s| &s.id == piece).expect("piece");
     let mut deepest = 0.0f32;
     let mut last: Option<([Rotation; JOINTS], [Rotation; JOINTS])> = None;
+    let mut last_dir = rapier3d::math::Vector::Y;
+    let mut last_plan = rapier3d::math::Vector::Y;
     while c.time_s() < at + 0.15 {
         if std::env::var_os("SANK").is_some() && c.drummer().max_penetration_m() > deepest + 0.001 {
             // Each new deepest penetration of a stick, as it happens (the whole take up to T).
@@ -102,6 +107,20 @@ fn main() {
             let s = &c.drummer().surfaces()[k];
             let tip = c.drummer().tips(Mode::Himc)[hand];
             let target = c.last_targets()[hand].tip;
+            // How far the target's stick direction turned since the last period, degrees, and
+            // how far it points along the piece's normal (up from it: +).
+            let dir = c.last_targets()[hand].dir;
+            let turn = dir.dot(last_dir).clamp(-1.0, 1.0).acos().to_degrees();
+            last_dir = dir;
+            let plan = c.targets().at(hand, t, None).dir;
+            let plan_turn = plan.dot(last_plan).clamp(-1.0, 1.0).acos().to_degrees();
+            last_plan = plan;
+            let n = c.drummer().surfaces()[k].normal;
+            print!(
+                "dir turn {turn:5.1} deg (before the keep-out {plan_turn:5.1}) dir.n {:+.2} ({:+.2}) ",
+                dir.dot(n),
+                plan.dot(n)
+            );
             let on: Vec<&str> = c.drummer().touching(hand).map(|k| c.drummer().surfaces()[k].id.as_str()).collect();
             print!("{on:?} ");
             println!(
