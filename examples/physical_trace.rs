@@ -109,13 +109,12 @@ fn main() {
             let target = c.last_targets()[hand].tip;
             // How far the target's stick direction turned since the last period, degrees, and
             // how far it points along the piece's normal (up from it: +).
-            let dir = c.last_targets()[hand].dir;
-            let turn = dir.dot(last_dir).clamp(-1.0, 1.0).acos().to_degrees();
-            last_dir = dir;
-            let plan = c.targets().at(hand, t, None).dir;
-            let plan_turn = plan.dot(last_plan).clamp(-1.0, 1.0).acos().to_degrees();
-            last_plan = plan;
-            let n = c.drummer().surfaces()[k].normal;
+            let degrees =
+                |a: rapier3d::math::Vector, b: rapier3d::math::Vector| a.dot(b).clamp(-1.0, 1.0).acos().to_degrees();
+            let (dir, plan) = (c.last_targets()[hand].dir, c.targets().at(hand, t, None).dir);
+            let (turn, plan_turn) = (degrees(dir, last_dir), degrees(plan, last_plan));
+            (last_dir, last_plan) = (dir, plan);
+            let n = s.normal;
             print!(
                 "dir turn {turn:5.1} deg (before the keep-out {plan_turn:5.1}) dir.n {:+.2} ({:+.2}) ",
                 dir.dot(n),
