@@ -14,10 +14,20 @@ Needs `pip install python-osc` (scripts/setup-debian.sh installs it into
 """
 import argparse
 import json
+import socket
 import sys
 import time
 
 from pythonosc import dispatcher, osc_server
+
+
+def grow_receive_buffer(sock, size):
+    """Ask for `size` bytes of receive buffer: past net.core.rmem_max where allowed (root)."""
+    so_rcvbufforce = getattr(socket, "SO_RCVBUFFORCE", 33)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, so_rcvbufforce, size)
+    except OSError:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, size)
 
 
 def main():
@@ -65,6 +75,9 @@ def main():
     d.set_default_handler(on_message)
     server = osc_server.BlockingOSCUDPServer((args.host, args.port), d)
     server.max_packet_size = 65535
+    # A frame is about 110 messages, 60 frames a second: a receiver descheduled for a moment
+    # on a busy machine must not lose datagrams to the kernel's default 208 KB buffer.
+    grow_receive_buffer(server.socket, 16 << 20)
     server.timeout = 0.05
     print(server.server_address[1], flush=True)
     start = time.monotonic()

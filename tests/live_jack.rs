@@ -265,14 +265,19 @@ fn avatar_session(physical: bool) {
         _ => "kick",
     };
     let sent_s = |frame: u64| frame as f64 / RATE as f64;
-    // The notes in order from a first offset, each matched where the one before was.
+    // The notes in order from a first offset, each matched where the one before was, give or
+    // take how far the clocks drift apart since (CI saw the dummy driver 16 % behind, 64 ms
+    // over a 0.4 s gap; a note of the same piece is 0.4 s away at the nearest).
     let walk = |mut offset: f64| {
         let (mut strikes, mut unstruck) = (Vec::new(), Vec::new());
+        let mut matched_s = f64::NEG_INFINITY;
         for &(note, velocity, frame) in &played {
             let due = sent_s(frame) + offset;
-            match shown.iter().find(|s| s.0 == piece_of(note) && (s.1 - due).abs() <= 0.05) {
+            let drift = 0.25 * (sent_s(frame) - matched_s).min(0.4);
+            match shown.iter().find(|s| s.0 == piece_of(note) && (s.1 - due).abs() <= 0.05 + drift) {
                 Some(s) => {
                     offset = s.1 - sent_s(frame);
+                    matched_s = sent_s(frame);
                     strikes.push((s.clone(), velocity));
                 }
                 None => unstruck.push((piece_of(note), due)),
@@ -378,10 +383,16 @@ fn avatar_session(physical: bool) {
     if let Some((child, _, out)) = receiver {
         let got = vmc_receiver::finish_receiver(child, &out);
         let n = got.frames.len();
-        let span = got.frames[n - 1]["arrival_s"].as_f64().unwrap() - got.frames[0]["arrival_s"].as_f64().unwrap();
-        let rate = (n - 1) as f64 / span;
-        println!("VMC: {n} frames over {span:.1} s, {rate:.2} a second");
-        assert!(span > 10.0 && rate >= 59.0, "{n} VMC frames over {span:.1} s");
+        // Each frame carries the moment it shows (`/VMC/Ext/T`, 1/60 s apart on drumsim's
+        // clock): a frame the sender skipped or the receiver lost is a gap in them, and the
+        // frames arrive over as long as they show (paced, not sent in a burst).
+        let time = |f: &serde_json::Value, key: &str| f[key].as_f64().unwrap();
+        let shown_s = time(&got.frames[n - 1], "t") - time(&got.frames[0], "t");
+        let span = time(&got.frames[n - 1], "arrival_s") - time(&got.frames[0], "arrival_s");
+        let due = (shown_s * 60.0).round() as usize + 1;
+        println!("VMC: {n} of {due} frames over {shown_s:.1} s shown, arriving over {span:.1} s");
+        assert!(shown_s > 10.0 && n * 100 >= due * 99, "{n} VMC frames of {due} over {shown_s:.1} s");
+        assert!((span - shown_s).abs() <= 0.03 * shown_s, "{shown_s:.1} s of VMC frames arrived over {span:.1} s");
         for f in &got.frames {
             assert_eq!(f["bones"].as_object().unwrap().len(), 55);
             assert_eq!(f["blend"].as_object().unwrap().len(), 52);
