@@ -385,14 +385,15 @@ fn avatar_session(physical: bool) {
         let n = got.frames.len();
         // Each frame carries the moment it shows (`/VMC/Ext/T`, 1/60 s apart on drumsim's
         // clock): a frame the sender skipped or the receiver lost is a gap in them, and the
-        // frames arrive over as long as they show (paced, not sent in a burst).
+        // frames arrive over at least as long as they show (paced, not sent in a burst).
         let time = |f: &serde_json::Value, key: &str| f[key].as_f64().unwrap();
         let shown_s = time(&got.frames[n - 1], "t") - time(&got.frames[0], "t");
         let span = time(&got.frames[n - 1], "arrival_s") - time(&got.frames[0], "arrival_s");
         let due = (shown_s * 60.0).round() as usize + 1;
         println!("VMC: {n} of {due} frames over {shown_s:.1} s shown, arriving over {span:.1} s");
         assert!(shown_s > 10.0 && n * 100 >= due * 99, "{n} VMC frames of {due} over {shown_s:.1} s");
-        assert!((span - shown_s).abs() <= 0.03 * shown_s, "{shown_s:.1} s of VMC frames arrived over {span:.1} s");
+        // (A receiver that falls behind on a busy machine reads the last ones late: longer.)
+        assert!(span >= 0.97 * shown_s, "{shown_s:.1} s of VMC frames arrived over {span:.1} s");
         for f in &got.frames {
             assert_eq!(f["bones"].as_object().unwrap().len(), 55);
             assert_eq!(f["blend"].as_object().unwrap().len(), 52);
