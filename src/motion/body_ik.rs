@@ -127,7 +127,18 @@ pub fn solve_after(rig: &Rig, frame: &MotionFrame, carry: &mut Carry) -> BodyPos
         let grip_rest = rest[hand] + rig.grip_local;
         let r = rotation(&frame.hands[side]);
         let target = Pose { pos: position(&frame.hands[side], grip_rest).into(), rot: [r.w, r.i, r.j, r.k] };
-        let cleared = stick_clear::clear_of(&target, rig.grip_local, &body, ARM_CLEARANCE_M);
+        let out = if side == 0 { -1.0 } else { 1.0 };
+        // Out, down and a little back; and toward where the elbow was the frame before,
+        // so that a wrist passing near the pole's line does not swing the elbow over.
+        let pole = Vector3::new(0.8 * out, -0.3, -1.0).normalize() + carry.elbow[side].unwrap_or_else(Vector3::zeros);
+        let mut limb = TwoBone {
+            root: world[arm].0,
+            lengths: [rig.link_length(forearm), rig.link_length(hand)],
+            pole,
+            hinge_rest: Vector3::x(),
+        };
+        let elbow = |wrist: Vector3<f32>| limb.middle(wrist);
+        let cleared = stick_clear::clear_of_with(&target, rig.grip_local, &body, ARM_CLEARANCE_M, Some(&elbow));
         // The shift follows at most MAX_GRIP_SHIFT_STEP_M a frame, so a grip meeting the
         // body mid-stroke eases out instead of jumping.
         let want = Vector3::from(cleared.pos) - Vector3::from(target.pos);
@@ -142,16 +153,6 @@ pub fn solve_after(rig: &Rig, frame: &MotionFrame, carry: &mut Carry) -> BodyPos
         };
         let hand_rot = rotation(&target);
         let wrist = Vector3::from(target.pos) - hand_rot * rig.grip_local;
-        let out = if side == 0 { -1.0 } else { 1.0 };
-        // Out, down and a little back; and toward where the elbow was the frame before,
-        // so that a wrist passing near the pole's line does not swing the elbow over.
-        let pole = Vector3::new(0.8 * out, -0.3, -1.0).normalize() + carry.elbow[side].unwrap_or_else(Vector3::zeros);
-        let mut limb = TwoBone {
-            root: world[arm].0,
-            lengths: [rig.link_length(forearm), rig.link_length(hand)],
-            pole,
-            hinge_rest: Vector3::x(),
-        };
         carry.elbow[side] = Some(limb.geometry(wrist).1).filter(|p| p.iter().all(|v| v.is_finite()));
         let torso = Capsule { a: world[HIPS].0, b: world[NECK[0]].0, r: TORSO_R, name: "torso" };
         let swing = elbow_clear_of(&limb, wrist, &torso);
