@@ -6,7 +6,7 @@ use super::feet::PedalTargets;
 use super::targets::{TargetSettings, TipTargets};
 use crate::body::contacts::Strike;
 use crate::body::ik::ArmTarget;
-use crate::body::model::DT_S;
+use crate::body::model::{Surface, DT_S};
 use crate::body::pedals::{PedalBodies, BEATER};
 use crate::body::sim::{Drummer, DrummerError, DrummerSettings, Mode};
 use crate::body::strokes::TASK_HZ;
@@ -87,6 +87,25 @@ pub const REPLAN_FADE_S: f64 = 0.080;
 
 fn lerp(a: &ArmTarget, b: &ArmTarget, x: f32) -> ArmTarget {
     ArmTarget { tip: a.tip.lerp(b.tip, x), dir: a.dir.lerp(b.dir, x).normalize_or(Vector::Y) }
+}
+
+/// Keep hand `h`'s `target` at `t` off the pieces it is not striking and round the plates
+/// (`TipTargets::clear` and `keep_out`), its simulated tip at `sim_tip`: every target the
+/// arms head for, the period's end, a fast stroke's bottom and a rebound retargeted
+/// mid-period alike.
+#[allow(clippy::too_many_arguments)]
+fn guard(
+    targets: &TipTargets,
+    plates: &[usize],
+    piece_of: &[usize],
+    surfaces: &[Surface],
+    h: usize,
+    t: f64,
+    target: &mut ArmTarget,
+    sim_tip: Vector,
+) {
+    targets.clear(h, t, target, surfaces, piece_of);
+    targets.keep_out(h, t, target, sim_tip, plates.iter().map(|&i| (i, &surfaces[i])), piece_of);
 }
 
 /// Hand `h`'s target at `t` from `targets`, blended from the plan before them while that
@@ -283,9 +302,7 @@ impl Conductor {
         let surfaces = st.drummer.surfaces();
         for (h, target) in to.iter_mut().enumerate() {
             target.tip += self.targets.offset(h, p1);
-            self.targets.clear(h, t1, target, surfaces, &self.piece_of);
-            let plates = self.plates.iter().map(|&i| (i, &surfaces[i]));
-            self.targets.keep_out(h, t1, target, sim[h], plates, &self.piece_of);
+            guard(&self.targets, &self.plates, &self.piece_of, surfaces, h, t1, target, sim[h]);
         }
         let offset = st.drummer.time_s() - st.t;
         // A stroke that bottoms out inside the period passes through its deepest target at
@@ -295,6 +312,7 @@ impl Conductor {
             let kv = (((tb - st.t) / DT_S as f64).round() as usize).clamp(1, STEPS_PER_PERIOD - 1);
             let mut v = target_at(&self.targets, &self.previous, h, tb, st.touched[h]);
             v.tip += self.targets.offset(h, p1);
+            guard(&self.targets, &self.plates, &self.piece_of, surfaces, h, tb, &mut v, sim[h]);
             Some((kv, v))
         });
         // Each hand's interpolation runs from `start` at step `k0` to `to` at the period's end
@@ -344,6 +362,8 @@ impl Conductor {
                     to[h] = target_at(&self.targets, &self.previous, h, t1, st.touched[h]);
                     self.aims[h] = to[h].tip;
                     to[h].tip += self.targets.offset(h, p1);
+                    let (surfaces, tip) = (st.drummer.surfaces(), st.drummer.tips(Mode::Himc)[h]);
+                    guard(&self.targets, &self.plates, &self.piece_of, surfaces, h, t1, &mut to[h], tip);
                     start[h] = tg[h];
                     k0[h] = k + 1;
                 }
