@@ -11,8 +11,9 @@ use drumsim::eval::motion::{hand_onsets_s, mean_sd_median};
 use drumsim::eval::strike::{fraction_on_surface_within, StrikeNote};
 use drumsim::kit::Kit;
 use drumsim::midi::{read_file, NoteMap, ReadOptions};
+use drumsim::motion::corpus::teacher_hands;
 use drumsim::motion::hands::HandModel;
-use drumsim::motion::pipeline::{model_hands, perform, teacher_hands};
+use drumsim::motion::pipeline::{model_hands, perform};
 use drumsim::motion::upper::Library;
 use std::path::Path;
 
@@ -70,7 +71,7 @@ fn main() {
             }
         }
         n += pred.len();
-        let (notes, _) = drumsim::motion::corpus::hand_notes(&perf, &map, &kit).unwrap();
+        let (notes, _) = drumsim::motion::notes::hand_notes(&perf, &map, &kit).unwrap();
         let strike: Vec<StrikeNote> = notes
             .iter()
             .zip(&report.hands)

@@ -428,6 +428,7 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::body::sim::DrummerError>()
             || e.is::<drumsim::body::report::TrajectoryError>()
             || e.is::<drumsim::motion::corpus::CorpusError>()
+            || e.is::<drumsim::motion::notes::NotesError>()
             || e.is::<drumsim::motion::upper::LibraryError>()
             || e.is::<drumsim::motion::hands::HandsError>()
             || e.is::<drumsim::motion::mocap::MocapError>()

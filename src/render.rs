@@ -253,7 +253,9 @@ pub fn stage_motion(perf: &Performance, kit: &Kit, map: &NoteMap, hands: &Hands)
     let started = Instant::now();
     let (predicted, hands_from) = match hands {
         Hands::Model(model, name) => (pipeline::model_hands(model, perf, map), format!("model {name}")),
-        Hands::Teacher => (pipeline::teacher_hands(perf, map, kit)?, "the corpus teacher (--teacher)".to_string()),
+        Hands::Teacher => {
+            (crate::motion::corpus::teacher_hands(perf, map, kit)?, "the corpus teacher (--teacher)".to_string())
+        }
     };
     let library = pipeline::shipped_library()?;
     let planned = pipeline::perform_planned(perf, map, kit, &predicted, &library)?;
@@ -551,7 +553,7 @@ pub fn score_physical(
         let stick = matches!(m.limb, crate::interaction::Limb::LeftHand | crate::interaction::Limb::RightHand);
         let aim = of.filter(|_| stick).and_then(|i| {
             let piece = kit.piece(&all[i].piece).filter(|p| p.id == m.piece)?;
-            let (point, _) = crate::motion::corpus::strike_point(kit, piece, all[i].zone);
+            let (point, _) = crate::kit::strike_point(kit, piece, all[i].zone);
             let n = rapier3d::math::Vector::from(piece.normal).normalize();
             let (u, v) = crate::body::model::surface_basis(n);
             let d = rapier3d::math::Vector::from(point) - rapier3d::math::Vector::from(piece.position_m);

@@ -37,7 +37,7 @@ fn on_surface(kit: &Kit) -> (usize, usize, usize) {
         assert_eq!(motion.frames.len(), predicted.len());
         assert!(motion.frames.iter().all(|f| f.face.len() == 52 && f.hihat_openness.is_finite()));
         // The notes as planned: hand, piece centre, normal, radius.
-        let (notes, _) = drumsim::motion::corpus::hand_notes(&perf, &map, kit).unwrap();
+        let (notes, _) = drumsim::motion::notes::hand_notes(&perf, &map, kit).unwrap();
         let tips = motion.tips();
         assert_eq!(report.hands.len(), notes.len());
         // Played notes with the hand that played them; dropped notes count as misses.

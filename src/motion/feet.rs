@@ -10,8 +10,8 @@
 
 use crate::midi::roll::frame_of;
 use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
-use crate::motion::corpus::Rng;
 use crate::motion::Pose;
+use crate::rng::Rng;
 
 pub const OPEN_HOLD_FRAMES: usize = 20;
 /// Ankles at rest on the hi-hat pedal (left) and the kick pedal (right) of a kit without a

@@ -9,6 +9,7 @@ pub mod feet;
 pub mod hands;
 pub mod humanoid;
 pub mod mocap;
+pub mod notes;
 pub mod pipeline;
 pub mod plan;
 pub mod proxies;

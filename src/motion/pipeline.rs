@@ -5,18 +5,19 @@
 //! points) -> upper body and face by retrieval from the shipped library -> feet by pedal
 //! enforcement -> `Motion`, one frame per roll frame.
 
-use super::corpus::{self, CorpusError, Rng};
+use super::notes::{hand_notes, NotesError};
 use super::plan::{self, AssignSettings, HandNote, StrokeSettings};
 use super::track::{Motion, MotionFrame, Pose, FPS};
 use super::upper::{self, Library, LibraryError, MatchIndex, MatchReport, MatchSettings};
 use crate::kit::Kit;
 use crate::midi::roll::piano_roll;
 use crate::midi::{NoteMap, Performance};
+use crate::rng::Rng;
 
 #[derive(Debug, thiserror::Error)]
 pub enum MotionError {
     #[error(transparent)]
-    Corpus(#[from] CorpusError),
+    Notes(#[from] NotesError),
     #[error(transparent)]
     Library(#[from] LibraryError),
     #[error("{0}: the performance has no frames (an empty song)")]
@@ -32,7 +33,7 @@ pub struct MotionReport {
     pub hand_notes: usize,
     /// Hand notes no hand could play in time (three at once, impossible speed): not played.
     pub dropped: usize,
-    /// The hand of every hand note (in `corpus::hand_notes` order), `None` when dropped.
+    /// The hand of every hand note (in `notes::hand_notes` order), `None` when dropped.
     pub hands: Vec<Option<usize>>,
     pub retrieval: MatchReport,
 }
@@ -58,12 +59,6 @@ pub fn shipped_library() -> Result<Library, LibraryError> {
 pub fn model_hands(model: &super::hands::HandModel, perf: &Performance, map: &NoteMap) -> Vec<[Pose; 2]> {
     let roll = piano_roll(perf, map);
     model.predict_roll(&roll).iter().map(super::track::values_to_hands).collect()
-}
-
-/// The teacher's hands for `perf`: the documented fallback when no trained weights exist.
-pub fn teacher_hands(perf: &Performance, map: &NoteMap, kit: &Kit) -> Result<Vec<[Pose; 2]>, CorpusError> {
-    let t = corpus::teach(perf, map, kit, 0)?;
-    Ok(t.motion.frames.iter().map(|f| f.hands).collect())
 }
 
 /// Whole-body motion for `perf` on `kit`, from `predicted` hand poses (one per roll frame).
@@ -140,7 +135,7 @@ fn planned_with(
         return Err(MotionError::HandFrames { got: predicted.len(), want: frames });
     }
     // Hands: the notes on this kit, assigned and planned over the prediction.
-    let (notes, _unmapped) = corpus::hand_notes(perf, map, kit)?;
+    let (notes, _unmapped) = hand_notes(perf, map, kit)?;
     let notes: Vec<HandNote> = notes
         .iter()
         .map(|n| HandNote {

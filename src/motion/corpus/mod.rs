@@ -26,73 +26,14 @@ pub mod travel;
 pub mod upper;
 
 pub use dataset::{build_dataset, load_examples, run_corpus, save_examples, CorpusSummary, Example};
+// The hand notes on the kit are the runtime's (`motion::notes`); the teacher plays them too.
+pub use crate::motion::notes::{hand_notes, HandNote, NotesError, Role, LEFT, RIGHT};
 
-use crate::kit::{Kit, Piece, PieceKind};
-use crate::midi::roll::{frame_of, piano_roll, PianoRoll};
-use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
+use crate::kit::Kit;
+use crate::midi::roll::{piano_roll, PianoRoll};
+use crate::midi::{NoteMap, Performance, Zone};
 use crate::motion::{Motion, MotionFrame, FPS};
 use std::path::PathBuf;
-
-/// Which hand: index into [`MotionFrame::hands`].
-pub const LEFT: usize = 0;
-pub const RIGHT: usize = 1;
-
-/// What a piece is to a drummer, for the sticking rules.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Role {
-    HiHat,
-    Ride,
-    /// Crash, splash, china.
-    Crash,
-    Snare,
-    /// Toms and any other drum.
-    Tom,
-}
-
-impl Role {
-    /// Of a kit piece: hi-hat by its closed damping, ride and snare by id, else by kind.
-    pub fn of(piece: &Piece) -> Role {
-        match piece.kind {
-            PieceKind::Plate if piece.closed_damping_factor.is_some() => Role::HiHat,
-            PieceKind::Plate if piece.id.contains("ride") => Role::Ride,
-            PieceKind::Plate => Role::Crash,
-            PieceKind::Membrane if piece.id.contains("snare") => Role::Snare,
-            PieceKind::Membrane => Role::Tom,
-        }
-    }
-
-    /// Drums (not cymbals): the pieces fills are played on.
-    pub fn is_drum(self) -> bool {
-        matches!(self, Role::Snare | Role::Tom)
-    }
-
-    /// How much a drummer keeps this note when three fall at once (higher keeps).
-    pub fn importance(self) -> f32 {
-        match self {
-            Role::Crash => 4.0,
-            Role::Snare | Role::Tom => 3.0,
-            Role::Ride => 2.0,
-            Role::HiHat => 1.0,
-        }
-    }
-}
-
-/// One hand note before sticking: where and how hard it is struck.
-#[derive(Debug, Clone, PartialEq)]
-pub struct HandNote {
-    pub time_s: f64,
-    /// The 60 fps frame of its onset (the roll's).
-    pub frame: usize,
-    pub note: u8,
-    pub velocity: u8,
-    /// Index into `kit.pieces`.
-    pub piece: usize,
-    pub role: Role,
-    pub zone: Zone,
-    /// Strike point and surface normal (kit frame, metres).
-    pub point: [f32; 3],
-    pub normal: [f32; 3],
-}
 
 /// A hand note the teacher plays: its hand, piece and strike point.
 #[derive(Debug, Clone, PartialEq)]
@@ -130,8 +71,8 @@ pub struct Teaching {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum CorpusError {
-    #[error("{midi}: note map {map:?} sends note {note} to piece {piece:?}, which kit {kit:?} does not have")]
-    MissingPiece { midi: PathBuf, map: String, note: u8, piece: String, kit: String },
+    #[error(transparent)]
+    Notes(#[from] NotesError),
     #[error("{path}: cannot read: {source}")]
     Read { path: PathBuf, source: std::io::Error },
     #[error("{path}: cannot write: {source}")]
@@ -198,51 +139,23 @@ pub fn teach(perf: &Performance, map: &NoteMap, kit: &Kit, seed: u64) -> Result<
     })
 }
 
-/// The hand notes of a performance in time order (ties: note number), and the count of
-/// note-ons the map does not know.
-pub fn hand_notes(perf: &Performance, map: &NoteMap, kit: &Kit) -> Result<(Vec<HandNote>, usize), CorpusError> {
-    let mut notes = Vec::new();
-    let mut unmapped = 0;
-    for e in &perf.events {
-        let DrumEventKind::NoteOn { note, velocity } = e.kind else { continue };
-        let Some(entry) = map.entry(note) else {
-            unmapped += 1;
-            continue;
-        };
-        if entry.zone == Zone::Pedal {
-            continue;
-        }
-        let piece = kit.index_of(&entry.piece).ok_or_else(|| CorpusError::MissingPiece {
-            midi: perf.path.clone(),
-            map: map.name.clone(),
-            note,
-            piece: entry.piece.clone(),
-            kit: kit.name.clone(),
-        })?;
-        let p = &kit.pieces[piece];
-        let (point, normal) = strike_point(kit, p, entry.zone);
-        notes.push(HandNote {
-            time_s: e.time_s,
-            frame: frame_of(e.time_s),
-            note,
-            velocity,
-            piece,
-            role: Role::of(p),
-            zone: entry.zone,
-            point,
-            normal,
-        });
-    }
-    notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s).then(a.note.cmp(&b.note)));
-    Ok((notes, unmapped))
-}
-
 /// Where a zone of a piece is struck (the kit's geometry, shared with the body and direct mode).
 pub use crate::kit::strike_point;
 
 pub(crate) use crate::kit::geometry::{norm, normalize};
 
 pub use crate::rng::Rng;
+
+/// The teacher's hands for `perf`, one per roll frame (`render --teacher`, and the
+/// comparisons of `examples/planned_hands.rs`).
+pub fn teacher_hands(
+    perf: &Performance,
+    map: &NoteMap,
+    kit: &Kit,
+) -> Result<Vec<[crate::motion::track::Pose; 2]>, CorpusError> {
+    let t = teach(perf, map, kit, 0)?;
+    Ok(t.motion.frames.iter().map(|f| f.hands).collect())
+}
 
 #[cfg(test)]
 mod tests {
