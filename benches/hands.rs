@@ -7,7 +7,7 @@
 use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
 use criterion::{criterion_group, criterion_main, Criterion};
-use drumsim::motion::hands::model::HandNet;
+use drumsim::learn::hand_net::HandNet;
 use drumsim::motion::hands::streams::plan;
 use drumsim::motion::hands::weights::HandWeights;
 use drumsim::motion::hands::{HandModel, Normalisation, ROLL_COLUMNS};

@@ -150,7 +150,7 @@ fn main() {
                 let stick =
                     matches!(m.limb, drumsim::interaction::Limb::LeftHand | drumsim::interaction::Limb::RightHand);
                 if let (true, Some(piece)) = (stick, kit.piece(&hand[i].piece).filter(|p| p.id == m.piece)) {
-                    let (point, _) = drumsim::motion::corpus::strike_point(&kit, piece, hand[i].zone);
+                    let (point, _) = drumsim::learn::corpus::strike_point(&kit, piece, hand[i].zone);
                     let n = rapier3d::math::Vector::from(piece.normal).normalize();
                     let (u, v) = drumsim::body::model::surface_basis(n);
                     let d = rapier3d::math::Vector::from(point) - rapier3d::math::Vector::from(piece.position_m);

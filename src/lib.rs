@@ -12,6 +12,7 @@ pub mod eval;
 pub mod files;
 pub mod interaction;
 pub mod kit;
+pub mod learn;
 pub mod live;
 pub mod live_body;
 pub mod midi;

@@ -387,6 +387,16 @@ enum ModeArg {
     All,
 }
 
+/// `render --teacher`'s hands: the corpus teacher's (training-only code, reached from here
+/// so that the render path does not depend on it).
+fn teacher_hands(
+    perf: &drumsim::midi::Performance,
+    map: &drumsim::midi::NoteMap,
+    kit: &drumsim::kit::Kit,
+) -> anyhow::Result<Vec<[drumsim::motion::Pose; 2]>> {
+    Ok(drumsim::learn::corpus::teacher_hands(perf, map, kit)?)
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     if let Err(e) = drumsim::outputs::remove_partials_on_interrupt() {
@@ -427,11 +437,11 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.downcast_ref::<drumsim::interaction::play_to::PlayError>().is_some_and(|e| !e.is_io())
             || e.is::<drumsim::body::sim::DrummerError>()
             || e.is::<drumsim::body::report::TrajectoryError>()
-            || e.is::<drumsim::motion::corpus::CorpusError>()
+            || e.is::<drumsim::learn::corpus::CorpusError>()
             || e.is::<drumsim::motion::notes::NotesError>()
             || e.is::<drumsim::motion::upper::LibraryError>()
             || e.is::<drumsim::motion::hands::HandsError>()
-            || e.is::<drumsim::motion::mocap::MocapError>()
+            || e.is::<drumsim::learn::mocap::MocapError>()
             || e.is::<drumsim::motion::pipeline::MotionError>()
             || e.downcast_ref::<drumsim::motion::export::ExportError>().is_some_and(|e| !e.is_io())
             || e.is::<drumsim::eval::report::EvalError>()
@@ -501,7 +511,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 progress: true,
                 motion: !no_motion,
                 weights,
-                teacher,
+                teacher: teacher.then_some(teacher_hands as drumsim::render::TeacherHands),
                 sound: match sound {
                     SoundMode::Direct => drumsim::render::SoundMode::Direct,
                     SoundMode::Physical => drumsim::render::SoundMode::Physical,
@@ -699,8 +709,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 ))
                 .into());
             }
-            use drumsim::motion::{corpus, hands, mocap as mc};
-            let load = |path: &PathBuf, split: &str| -> anyhow::Result<Vec<hands::Example>> {
+            use drumsim::learn::{corpus, mocap as mc, Example};
+            use drumsim::motion::hands;
+            let load = |path: &PathBuf, split: &str| -> anyhow::Result<Vec<Example>> {
                 if !path.exists() {
                     eprintln!("{} is missing: building it from {} ({split})", path.display(), gmd.display());
                     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -708,13 +719,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     }
                     corpus::run_corpus(&gmd, path, split)?;
                 }
-                let ex = corpus::dataset::load_examples(path)?;
-                Ok(ex.into_iter().map(|e| hands::Example { id: e.id, roll: e.roll, hands: e.hands }).collect())
+                Ok(corpus::dataset::load_examples(path)?)
             };
             let val_set = load(&val, "validation")?;
             if report {
                 let model = hands::HandModel::load(&out.join("best.bpk"))?;
-                let v = hands::validate::validate(&model, &val_set)?;
+                let v = drumsim::learn::validate::validate(&model, &val_set)?;
                 println!("{}", serde_json::to_string(&v)?);
                 return Ok(());
             }
@@ -722,11 +732,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let map = drumsim::midi::NoteMap::builtin("gm").expect("built-in map");
             for path in &mocap {
                 let take = mc::load_mocap(path, &mc::JointNames::default(), Some(&map))?;
-                let e = take.example(&path.display().to_string());
-                train_set.push(hands::Example { id: e.id, roll: e.roll, hands: e.hands });
+                train_set.push(take.example(&path.display().to_string()));
             }
             std::fs::create_dir_all(&out)?;
-            let r = hands::run_train(&train_set, &val_set, &out, epochs as usize, max_minutes, velocity_weight, lr)?;
+            let r = drumsim::learn::run_train(
+                &train_set,
+                &val_set,
+                &out,
+                epochs as usize,
+                max_minutes,
+                velocity_weight,
+                lr,
+            )?;
             println!(
                 "epoch {}: best validation loss {:.5} at epoch {} -> {}",
                 r.epoch,
@@ -737,7 +754,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Corpus { gmd, split, out: _, library: Some(path) } => {
-            let (lib, s) = drumsim::motion::upper::build::build_library(&gmd, &split, 15, 600)?;
+            let (lib, s) = drumsim::learn::upper_library::build_library(&gmd, &split, 15, 600)?;
             lib.save(&path)?;
             for (id, why) in &s.skipped {
                 eprintln!("skipped {id}: {why}");
@@ -750,7 +767,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;
             }
-            let s = drumsim::motion::corpus::run_corpus(&gmd, &out, &split)?;
+            let s = drumsim::learn::corpus::run_corpus(&gmd, &out, &split)?;
             for (path, why) in &s.skipped {
                 eprintln!("skipped {}: {why}", path.display());
             }

@@ -43,8 +43,9 @@ pub struct RenderOptions {
     /// Hand model weights (default: `$DRUMSIM_ASSETS/hands/best.bpk` if it exists, else the
     /// compiled-in model).
     pub weights: Option<PathBuf>,
-    /// Hands from the corpus teacher instead of the hand model.
-    pub teacher: bool,
+    /// Hands from the corpus teacher instead of the hand model (`--teacher`): the teacher is
+    /// training-only code (`crate::learn`), handed in by the command line.
+    pub teacher: Option<TeacherHands>,
     pub sound: SoundMode,
     /// The bone names of SONG.bvh and SONG.glb.
     pub rig_names: crate::motion::rig::RigNames,
@@ -61,7 +62,7 @@ impl Default for RenderOptions {
             progress: false,
             motion: true,
             weights: None,
-            teacher: false,
+            teacher: None,
             sound: SoundMode::Direct,
             rig_names: crate::motion::rig::RigNames::Drumsim,
         }
@@ -216,12 +217,16 @@ pub struct MotionOutput {
     pub seconds: f64,
 }
 
+/// Hands for every roll frame of a performance on a kit, from something other than the hand
+/// model (the corpus teacher).
+pub type TeacherHands = fn(&Performance, &NoteMap, &Kit) -> anyhow::Result<Vec<[crate::motion::track::Pose; 2]>>;
+
 /// Where a render's hands come from.
 pub enum Hands {
     /// The hand model, with the name the summary gives it (a path, or the compiled-in one).
     Model(Box<crate::motion::hands::HandModel>, String),
     /// The corpus teacher, only when asked for (`--teacher`).
-    Teacher,
+    Teacher(TeacherHands),
 }
 
 /// The hand model of a render: `--teacher`, else `--weights`, else
@@ -229,8 +234,8 @@ pub enum Hands {
 /// that cannot be read are an error; nothing falls back to the teacher silently.
 pub fn load_hands(opts: &RenderOptions) -> anyhow::Result<Hands> {
     use crate::motion::hands::{HandModel, SHIPPED_WEIGHTS_NAME};
-    if opts.teacher {
-        return Ok(Hands::Teacher);
+    if let Some(teacher) = opts.teacher {
+        return Ok(Hands::Teacher(teacher));
     }
     Ok(match opts.weights.clone().or_else(crate::motion::pipeline::override_weights) {
         Some(path) => Hands::Model(Box::new(HandModel::load(&path)?), path.display().to_string()),
@@ -253,9 +258,7 @@ pub fn stage_motion(perf: &Performance, kit: &Kit, map: &NoteMap, hands: &Hands)
     let started = Instant::now();
     let (predicted, hands_from) = match hands {
         Hands::Model(model, name) => (pipeline::model_hands(model, perf, map), format!("model {name}")),
-        Hands::Teacher => {
-            (crate::motion::corpus::teacher_hands(perf, map, kit)?, "the corpus teacher (--teacher)".to_string())
-        }
+        Hands::Teacher(teacher) => (teacher(perf, map, kit)?, "the corpus teacher (--teacher)".to_string()),
     };
     let library = pipeline::shipped_library()?;
     let planned = pipeline::perform_planned(perf, map, kit, &predicted, &library)?;

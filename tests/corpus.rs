@@ -4,8 +4,8 @@
 //! figures it measured (`cargo test --release --test corpus -- --nocapture`).
 
 use drumsim::kit::Kit;
+use drumsim::learn::corpus::{build_dataset, load_examples, run_corpus, teach, PlannedNote, Teaching, LEFT, RIGHT};
 use drumsim::midi::{read_file, NoteMap, ReadOptions};
-use drumsim::motion::corpus::{build_dataset, load_examples, run_corpus, teach, PlannedNote, Teaching, LEFT, RIGHT};
 use std::path::{Path, PathBuf};
 
 fn gmd() -> PathBuf {
@@ -233,7 +233,7 @@ fn a_small_dataset_builds_skips_bad_files_and_round_trips() {
 
 #[test]
 fn the_example_mocap_file_loads_into_an_example() {
-    use drumsim::motion::mocap::{load_mocap, JointNames};
+    use drumsim::learn::mocap::{load_mocap, JointNames};
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/mocap-example.json");
     let take = load_mocap(&path, &JointNames::default(), None).unwrap();
     assert_eq!(take.motion.frames.len(), 4);

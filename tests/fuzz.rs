@@ -257,7 +257,7 @@ fn fuzz_the_map_reader() {
 
 #[test]
 fn fuzz_the_mocap_loader() {
-    use drumsim::motion::mocap::{parse_mocap, JointNames};
+    use drumsim::learn::mocap::{parse_mocap, JointNames};
     let seeds = vec![read("assets/mocap-example.json")];
     let (names, gm) = (JointNames::default(), NoteMap::builtin("gm").unwrap());
     fuzz("mocap", &seeds, true, |bytes| {

@@ -6,11 +6,10 @@ use std::path::{Path, PathBuf};
 use burn::module::Module;
 use burn::nn::{BiLstmConfig, DropoutConfig, LinearConfig};
 use burn::tensor::{Device, Tensor, TensorData};
-use drumsim::motion::hands::model::HandNet;
+use drumsim::learn::hand_net::HandNet;
+use drumsim::learn::{train, Example, TrainConfig};
 use drumsim::motion::hands::weights::HandWeights;
-use drumsim::motion::hands::{
-    train, Example, HandModel, HandsError, Kernels, Normalisation, TrainConfig, ROLL_COLUMNS,
-};
+use drumsim::motion::hands::{HandModel, HandsError, Kernels, Normalisation, ROLL_COLUMNS};
 use drumsim::motion::HAND_VALUES;
 
 fn scratch(name: &str) -> PathBuf {
@@ -312,7 +311,7 @@ fn chunked_inference_matches_the_sequential_pass() {
 fn a_changed_teacher_changes_the_data_digest() {
     // A resumed run compares this digest to tell that its material changed (and then
     // measures the best checkpoint afresh).
-    use drumsim::motion::hands::train::data_digest;
+    use drumsim::learn::train::data_digest;
     let a = vec![synthetic_example(1, 50), synthetic_example(2, 40)];
     let mut b = a.clone();
     assert_eq!(data_digest(&a), data_digest(&b), "the same material, the same digest");
@@ -328,7 +327,7 @@ fn traj_tensor(v: &[[f32; HAND_VALUES]]) -> Tensor<3> {
 
 #[test]
 fn the_velocity_term_sees_timing_and_not_an_offset() {
-    use drumsim::motion::hands::model::{masked_mse, masked_velocity_mse};
+    use drumsim::learn::hand_net::{masked_mse, masked_velocity_mse};
     let t = 40;
     // A stroke on the left grip's height (channel 2): a bump centred on frame 20.
     let bump = |shift: f32| -> Vec<[f32; HAND_VALUES]> {

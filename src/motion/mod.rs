@@ -1,14 +1,12 @@
 //! MIDI -> drumming motion (the DRUMS half, DESIGN.md 1a): the shared frame types here;
-//! the training corpus, hand model, strike planning, upper-body retrieval, feet, rig and
-//! exports in their own modules.
+//! the hand model, strike planning, upper-body retrieval, feet, rig and exports in their own
+//! modules. The training corpus and the hand model's training are in [`crate::learn`].
 
 pub mod body_ik;
-pub mod corpus;
 pub mod export;
 pub mod feet;
 pub mod hands;
 pub mod humanoid;
-pub mod mocap;
 pub mod notes;
 pub mod pipeline;
 pub mod plan;

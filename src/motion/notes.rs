@@ -1,7 +1,7 @@
 //! The hand notes of a performance on a kit: every mapped note-on whose zone is not
 //! `Pedal` (the kick and the hi-hat pedal are feet), struck at the point of its piece its
 //! zone sets (`kit::strike_point`), with what a piece is to a drummer ([`Role`]). Strike
-//! planning plays them at render time; the training teacher (`motion::corpus`) sticks and
+//! planning plays them at render time; the training teacher (`learn::corpus`) sticks and
 //! plays the same notes.
 
 use crate::kit::{strike_point, Kit, Piece, PieceKind};

@@ -3,20 +3,17 @@
 //! (16 binary columns) to 14 hand values per frame (per hand position 3 + quaternion w,x,y,z,
 //! [`crate::motion::HAND_VALUES`]).
 //!
-//! - [`model`]: the network as a burn module, used for training.
-//! - [`train`]: the training loop (random crops, masked MSE, AdamW, norm clipping, best and
-//!   resumable checkpoints).
 //! - [`weights`]: a saved burnpack checkpoint read into plain `f32` arrays.
 //! - [`infer`]: our own forward pass on those arrays, several times faster than burn's on one
 //!   core; [`HandModel`] is what the rest of drumsim calls.
+//!
+//! Training (the network as a burn module, the training loop, validation against the
+//! teacher) is training-only code, in [`crate::learn`].
 
 pub mod infer;
 pub mod kernels;
-pub mod model;
 pub mod quant;
 pub mod streams;
-pub mod train;
-pub mod validate;
 pub mod weights;
 
 use std::path::PathBuf;
@@ -27,21 +24,9 @@ use crate::motion::HAND_VALUES;
 
 pub use infer::{HandModel, SHIPPED_WEIGHTS_NAME};
 pub use streams::Kernels;
-pub use train::{run_train, train, EpochReport, TrainConfig, TrainReport};
 
 /// Piano-roll columns (`midi::roll::NOTE_NUMS`), the network's input width.
 pub const ROLL_COLUMNS: usize = 16;
-
-/// One training sequence: a 60 fps piano roll and the hand values of the same frames.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Example {
-    /// Where it came from (file name), for reports.
-    pub id: String,
-    /// Binary piano roll, one row per frame.
-    pub roll: Vec<[f32; ROLL_COLUMNS]>,
-    /// Target hand values, one row per frame (same length as `roll`).
-    pub hands: Vec<[f32; HAND_VALUES]>,
-}
 
 /// Per-channel normalisation of the 14 targets: the network predicts `(v - mean) / std`, so
 /// that the MSE weighs centimetres of position and quaternion components alike.
@@ -58,27 +43,6 @@ impl Normalisation {
     /// Identity (mean 0, std 1).
     pub fn identity() -> Self {
         Self { mean: [0.0; HAND_VALUES], std: [1.0; HAND_VALUES] }
-    }
-
-    /// Mean and standard deviation per channel over every frame of `examples`.
-    pub fn fit(examples: &[Example]) -> Self {
-        let mut sum = [0.0f64; HAND_VALUES];
-        let mut sq = [0.0f64; HAND_VALUES];
-        let mut n = 0usize;
-        for v in examples.iter().flat_map(|e| e.hands.iter()) {
-            for c in 0..HAND_VALUES {
-                sum[c] += v[c] as f64;
-                sq[c] += (v[c] as f64).powi(2);
-            }
-            n += 1;
-        }
-        if n == 0 {
-            return Self::identity();
-        }
-        let mean = sum.map(|s| s / n as f64);
-        let std =
-            std::array::from_fn(|c| ((sq[c] / n as f64 - mean[c] * mean[c]).max(0.0).sqrt() as f32).max(Self::MIN_STD));
-        Self { mean: mean.map(|m| m as f32), std }
     }
 
     pub fn normalise(&self, v: &[f32; HAND_VALUES]) -> [f32; HAND_VALUES] {

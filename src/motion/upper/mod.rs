@@ -16,9 +16,9 @@
 //! (`turn.rs`).
 //!
 //! The library holds only training material (`library.rs`): windows of the teacher's
-//! motion of the Groove MIDI train split, or of loaded mocap.
+//! motion of the Groove MIDI train split, or of loaded mocap, built by
+//! [`crate::learn::upper_library`].
 
-pub mod build;
 pub mod library;
 pub mod matching;
 pub mod turn;

@@ -21,11 +21,11 @@
 //! along that line: the tip, which is what strikes, is kept exactly. MIDI notes must be DRUMS
 //! roll notes ([`NOTE_NUMS`]) or notes the given map knows.
 
-use super::corpus::Example;
-use super::track::hands_to_values;
-use super::{Motion, MotionFrame, Pose, FPS, STICK_TIP_LOCAL};
+use super::Example;
 use crate::midi::roll::{column, PianoRoll, NOTE_NUMS};
 use crate::midi::NoteMap;
+use crate::motion::track::hands_to_values;
+use crate::motion::{Motion, MotionFrame, Pose, FPS, STICK_TIP_LOCAL};
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};

@@ -217,8 +217,8 @@ fn lift_time(lift: f32) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::learn::corpus::{strike_point, Role, RIGHT};
     use crate::midi::roll::frame_of;
-    use crate::motion::corpus::{strike_point, Role, RIGHT};
 
     fn note(kit: &Kit, id: &str, time_s: f64, velocity: u8) -> HandNote {
         let piece = kit.index_of(id).unwrap();

@@ -307,9 +307,9 @@ impl Search<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::learn::corpus::strike_point;
     use crate::midi::roll::frame_of;
     use crate::midi::Zone;
-    use crate::motion::corpus::strike_point;
 
     fn note(kit: &Kit, id: &str, time_s: f64, velocity: u8) -> HandNote {
         let piece = kit.index_of(id).unwrap();

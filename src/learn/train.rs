@@ -5,7 +5,7 @@
 //!
 //! Checkpoints in the output directory:
 //! - `best.bpk` + `best.json`: the best-validation weights and their sidecar (epoch, losses,
-//!   normalisation, config); what [`super::HandModel::load`] reads.
+//!   normalisation, config); what [`crate::motion::hands::HandModel::load`] reads.
 //! - `last.bpk`, `last.optim.bpk`, `last.json`: the latest state, written after every epoch
 //!   and when the time budget runs out, from which [`train`] resumes (AdamW's moments
 //!   included: burn saves the optimizer state).
@@ -21,8 +21,9 @@ use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 
-use super::model::{masked_mse, masked_velocity_mse, HandNet};
-use super::{Example, HandsError, Normalisation, ROLL_COLUMNS};
+use super::hand_net::{masked_mse, masked_velocity_mse, HandNet};
+use super::{fit_normalisation, Example};
+use crate::motion::hands::{HandsError, Normalisation, ROLL_COLUMNS};
 use crate::motion::HAND_VALUES;
 
 /// Training settings; the defaults are the paper's, plus drumsim's velocity term
@@ -440,7 +441,7 @@ pub fn train(
         }
         st
     } else {
-        let normalisation = Normalisation::fit(train);
+        let normalisation = fit_normalisation(train);
         let vel = velocity_weights(train, &normalisation, cfg.velocity_weight);
         let initial = evaluate(&model, val, &val_crops, &cfg, &normalisation, &vel);
         TrainReport {

@@ -35,16 +35,7 @@ pub const VERSION: u32 = 1;
 /// Frames kept after the last note.
 pub const TAIL_FRAMES: usize = 60;
 
-/// One training pair.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Example {
-    /// The file's id in info.csv ("drummer1/session1/1").
-    pub id: String,
-    /// 60 fps piano roll, 0 or 1.
-    pub roll: Vec<[f32; 16]>,
-    /// The teacher's hand values per frame ([`crate::motion::hands_to_values`]).
-    pub hands: Vec<[f32; HAND_VALUES]>,
-}
+pub use crate::learn::Example;
 
 /// The examples of a split and the files that could not be read.
 #[derive(Debug, Clone, Default)]

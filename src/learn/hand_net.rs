@@ -1,18 +1,18 @@
 //! The DRUMS hand network as a burn module: roll `[batch, frames, 16]` -> two stacked
 //! bidirectional LSTMs (hidden `H` per direction, dropout between them) -> linear ->
 //! `[batch, frames, 14]` (normalised hand values). Used for training; inference at run time
-//! goes through [`super::infer`], which reads the same saved weights.
+//! goes through [`crate::motion::hands::infer`], which reads the same saved weights.
 
 use burn::module::Module;
 use burn::nn::{BiLstm, BiLstmConfig, Dropout, DropoutConfig, Linear, LinearConfig};
 use burn::tensor::{Device, Tensor};
 
-use super::ROLL_COLUMNS;
+use crate::motion::hands::ROLL_COLUMNS;
 use crate::motion::HAND_VALUES;
 
 /// The network. Field names are the tensor names' prefixes in the saved burnpack
 /// (`lstm1.forward.input_gate.input_transform.weight`, ..., `head.weight`), which
-/// [`super::weights`] reads.
+/// [`crate::motion::hands::weights`] reads.
 #[derive(Module, Debug)]
 pub struct HandNet {
     pub lstm1: BiLstm,

@@ -6,11 +6,11 @@
 //! Taking performances evenly through the file keeps every drummer, style and tempo of the
 //! split; the busiest stretch keeps grooves and fills rather than count-ins and silence.
 
-use super::library::{mask, Clip, Library, UpperFrame};
 use crate::kit::Kit;
+use crate::learn::corpus::dataset::{read_info, seed_of};
+use crate::learn::corpus::{teach, CorpusError};
 use crate::midi::{read_file, NoteMap, ReadOptions};
-use crate::motion::corpus::dataset::{read_info, seed_of};
-use crate::motion::corpus::{teach, CorpusError};
+use crate::motion::upper::library::{mask, Clip, Library, UpperFrame};
 use std::path::Path;
 
 /// What went into a library.

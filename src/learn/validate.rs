@@ -6,11 +6,11 @@
 //!   onsets of the roll (every column but the kick, 36, and the hi-hat pedal, 44) within +-3
 //!   frames, pooled over the performances (`eval::beat`).
 
-use super::infer::HandModel;
 use super::Example;
 use crate::eval::beat::{beat_alignment, BeatParams};
 use crate::eval::motion::{l1_m, mean_sd_median, MotionMetricError};
 use crate::midi::roll::NOTE_NUMS;
+use crate::motion::hands::HandModel;
 use crate::motion::track::values_to_hands;
 
 /// What [`validate`] measured.
