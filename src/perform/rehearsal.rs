@@ -259,6 +259,45 @@ pub fn learn_speed(
     }
 }
 
+/// Shift the last approach of a stroke whose contact came `error_s` off its note (at
+/// `contact_s`) along the surface's normal by a share of the distance the note's speed
+/// covers in that time: up for an early contact, down for a late one (by at most half the
+/// target's height over the surface), from [`SPEED_RAMP_S`] before the contact (eased in
+/// over as long before) to the planned touch, never before `from_s` (the stroke's start: the
+/// last stroke's rebound is its own). The tracking error alone does not move a stroke that
+/// tracks its target and still meets the head early.
+pub fn learn_time(
+    offsets: &mut [Vector],
+    note: &HandNote,
+    from_s: f64,
+    contact_s: f64,
+    error_s: f64,
+    aims: &[Vector],
+    last: usize,
+) {
+    let n = Vector::from(note.normal);
+    let shift = -(error_s as f32) * note.speed_mps * TIME_GAIN;
+    let lead = LEARN_LEAD as f64 / TASK_HZ;
+    let start = contact_s.min(note.time_s) - lead;
+    let end = contact_s.max(note.time_s) - lead;
+    let q0 = period_index((start - 2.0 * SPEED_RAMP_S).max(from_s));
+    let q1 = period_index(end).min(last);
+    for q in q0..=q1.min(offsets.len() - 1) {
+        let before = start - (q as f64 / TASK_HZ - PREROLL_S);
+        let w = if before <= SPEED_RAMP_S { 1.0 } else { (2.0 - before / SPEED_RAMP_S).max(0.0) as f32 };
+        let mut d = shift * w;
+        if d < 0.0 {
+            let height = (aims[q] - Vector::from(note.point)).dot(n).max(0.0);
+            d = d.max(-0.5 * height);
+        }
+        offsets[q] = (offsets[q] + n * d).clamp_length_max(MAX_OFFSET_M);
+    }
+}
+
+/// Share of the distance an off-time stroke's speed covers in its error taken into its
+/// approach per attempt ([`learn_time`]).
+const TIME_GAIN: f32 = 0.7;
+
 /// Learning reaches at least this far before a stroke's contact (an early contact may come
 /// from the last stroke's rebound), seconds.
 const LEARN_BACK_S: f64 = 0.032;
@@ -450,6 +489,11 @@ impl Rehearsal {
                         changed |= !periods.is_empty();
                         let (aims, sims) = (&self.aims[h], &self.sims[h]);
                         learn(offsets, verdict, &n, periods, aims, sims, s.tolerance_s);
+                        if let Verdict::Off { error_s, .. } = verdict {
+                            if error_s.abs() > s.tolerance_s {
+                                learn_time(offsets, &n, from, contact, error_s, &self.aims[h], p1);
+                            }
+                        }
                     }
                     if let Some((contact_s, e)) = off_speed {
                         learn_speed(offsets, &n, contact_s, n.speed_mps * e.exp(), &self.aims[h], p1);
@@ -568,5 +612,29 @@ mod tests {
         let mut capped = vec![Vector::ZERO; periods];
         learn_speed(&mut capped, &n, 1.0, 5.0, &low, periods - 1);
         assert!(capped.iter().all(|o| o.z >= -0.005 - 1e-6));
+    }
+
+    #[test]
+    fn a_stroke_that_met_the_head_early_starts_its_last_approach_higher_and_a_late_one_lower() {
+        let periods = period_index(1.2);
+        let aims = vec![Vector::new(0.0, 0.0, 0.65); periods];
+        let n = note(1.0);
+        let lead = LEARN_LEAD as f64 / TASK_HZ;
+        // 12 ms early: raised along the normal by about 0.7 x 12 mm over the last approach,
+        // up to the planned touch, never before the stroke's start.
+        let mut early = vec![Vector::ZERO; periods];
+        learn_time(&mut early, &n, 0.95, 0.988, -0.012, &aims, periods - 1);
+        assert!(early.iter().all(|o| o.x == 0.0 && o.y == 0.0 && o.z >= 0.0));
+        let top = early.iter().map(|o| o.z).fold(0.0, f32::max);
+        assert!((top - 0.0084).abs() < 1e-4, "{top}");
+        assert!(early[period_index(1.0 - lead)].z > 0.008);
+        assert!(early[..period_index(0.95)].iter().chain(&early[period_index(1.0 - lead) + 1..]).all(|o| o.z == 0.0));
+        // 12 ms late: lowered, by at most half the target's height (a target 1 cm over the
+        // head, 5 mm), up to the late contact.
+        let low = vec![Vector::new(0.0, 0.0, 0.61); periods];
+        let mut late = vec![Vector::ZERO; periods];
+        learn_time(&mut late, &n, 0.9, 1.012, 0.012, &low, periods - 1);
+        assert!(late.iter().all(|o| o.z <= 0.0 && o.z >= -0.005 - 1e-6));
+        assert!(late[period_index(1.012 - lead)].z < -0.004);
     }
 }
