@@ -256,12 +256,14 @@ pub struct Staged {
 pub fn stage_motion(perf: &Performance, kit: &Kit, map: &NoteMap, hands: &Hands) -> anyhow::Result<Staged> {
     use crate::motion::pipeline;
     let started = Instant::now();
+    // The piano roll is made once: the hand model reads it, and the motion stage.
+    let roll = crate::midi::roll::piano_roll(perf, map);
     let (predicted, hands_from) = match hands {
-        Hands::Model(model, name) => (pipeline::model_hands(model, perf, map), format!("model {name}")),
+        Hands::Model(model, name) => (pipeline::roll_hands(model, &roll), format!("model {name}")),
         Hands::Teacher(teacher) => (teacher(perf, map, kit)?, "the corpus teacher (--teacher)".to_string()),
     };
     let library = pipeline::shipped_library()?;
-    let planned = pipeline::perform_planned(perf, map, kit, &predicted, &library)?;
+    let planned = pipeline::perform_planned_roll(perf, map, &roll, kit, &predicted, &library)?;
     Ok(Staged { planned, hands_from, seconds: started.elapsed().as_secs_f64() })
 }
 

@@ -10,7 +10,7 @@ use super::plan::{self, AssignSettings, HandNote, StrokeSettings};
 use super::track::{Motion, MotionFrame, Pose, FPS};
 use super::upper::{self, Library, LibraryError, MatchIndex, MatchReport, MatchSettings};
 use crate::kit::Kit;
-use crate::midi::roll::piano_roll;
+use crate::midi::roll::{piano_roll, PianoRoll};
 use crate::midi::{NoteMap, Performance};
 use crate::rng::Rng;
 
@@ -57,8 +57,12 @@ pub fn shipped_library() -> Result<Library, LibraryError> {
 
 /// The hand model's poses for `perf`, one per roll frame.
 pub fn model_hands(model: &super::hands::HandModel, perf: &Performance, map: &NoteMap) -> Vec<[Pose; 2]> {
-    let roll = piano_roll(perf, map);
-    model.predict_roll(&roll).iter().map(super::track::values_to_hands).collect()
+    roll_hands(model, &piano_roll(perf, map))
+}
+
+/// The hand model's poses for a piano roll (`piano_roll(perf, map)`), one per frame.
+pub fn roll_hands(model: &super::hands::HandModel, roll: &PianoRoll) -> Vec<[Pose; 2]> {
+    model.predict_roll(roll).iter().map(super::track::values_to_hands).collect()
 }
 
 /// Whole-body motion for `perf` on `kit`, from `predicted` hand poses (one per roll frame).
@@ -93,6 +97,19 @@ pub fn perform_planned(
     perform_planned_indexed(perf, map, kit, predicted, library, &MatchIndex::of(library)?)
 }
 
+/// [`perform_planned`] on the performance's piano roll made beforehand (`piano_roll(perf,
+/// map)`, which the hand model read too): a render makes its roll once.
+pub fn perform_planned_roll(
+    perf: &Performance,
+    map: &NoteMap,
+    roll: &PianoRoll,
+    kit: &Kit,
+    predicted: &[[Pose; 2]],
+    library: &Library,
+) -> Result<Planned, MotionError> {
+    planned_with(perf, map, roll, kit, predicted, Some((library, &MatchIndex::of(library)?)))
+}
+
 /// [`perform_planned`] with the library's index made beforehand (`MatchIndex::of(library)`):
 /// for a caller that plans over and over (the live motion stage).
 pub fn perform_planned_indexed(
@@ -103,7 +120,7 @@ pub fn perform_planned_indexed(
     library: &Library,
     index: &MatchIndex,
 ) -> Result<Planned, MotionError> {
-    planned_with(perf, map, kit, predicted, Some((library, index)))
+    planned_with(perf, map, &piano_roll(perf, map), kit, predicted, Some((library, index)))
 }
 
 /// What the simulated body plays from, and no more: the planned hands and the feet (the
@@ -116,17 +133,17 @@ pub fn perform_planned_for_body(
     kit: &Kit,
     predicted: &[[Pose; 2]],
 ) -> Result<Planned, MotionError> {
-    planned_with(perf, map, kit, predicted, None)
+    planned_with(perf, map, &piano_roll(perf, map), kit, predicted, None)
 }
 
 fn planned_with(
     perf: &Performance,
     map: &NoteMap,
+    roll: &PianoRoll,
     kit: &Kit,
     predicted: &[[Pose; 2]],
     upper: Option<(&Library, &MatchIndex)>,
 ) -> Result<Planned, MotionError> {
-    let roll = piano_roll(perf, map);
     let frames = roll.len();
     if frames == 0 || perf.events.is_empty() {
         return Err(MotionError::Empty(perf.path.display().to_string()));
