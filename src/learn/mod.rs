@@ -49,3 +49,43 @@ pub fn fit_normalisation(examples: &[Example]) -> Normalisation {
     });
     Normalisation { mean: mean.map(|m| m as f32), std }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    /// Every `.rs` file under `dir`, recursively.
+    fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                sources(&path, out);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                out.push(path);
+            }
+        }
+    }
+
+    #[test]
+    fn no_runtime_module_uses_the_training_code() {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let mut files = Vec::new();
+        sources(&src, &mut files);
+        let mut offenders = Vec::new();
+        for f in &files {
+            let rel = f.strip_prefix(&src).unwrap();
+            if rel.starts_with("learn") || rel == Path::new("main.rs") || rel == Path::new("lib.rs") {
+                continue;
+            }
+            let text = std::fs::read_to_string(f).unwrap();
+            for (i, line) in text.lines().enumerate() {
+                let code = line.split("//").next().unwrap_or("");
+                if code.contains("learn::") {
+                    offenders.push(format!("{}:{}: {}", rel.display(), i + 1, line.trim()));
+                }
+            }
+        }
+        assert!(files.len() > 100, "{} source files found", files.len());
+        assert!(offenders.is_empty(), "runtime code uses src/learn/:\n{}", offenders.join("\n"));
+    }
+}
