@@ -283,6 +283,29 @@ fn the_rehearsal_plays_missed_and_late_strokes_again_until_they_land() {
     assert!(speed_replays > 0, "no stroke replayed for its speed");
 }
 
+/// A cross-stick's shaft meets the snare's hoop about 12 ms before the tip would reach the
+/// head: a stroke that tracks its targets and still lands early. The rehearsal moves such a
+/// stroke's last approach by its timing error (`learn_time`), so the cross-sticks of a bomba
+/// groove land on their notes and none sounds early on the hoop.
+#[test]
+fn cross_sticks_that_meet_the_hoop_early_are_played_again_until_they_land_on_time() {
+    let (map, kit, perf, planned) = planned_take("drummer1/session3/12_latin-bomba_96_beat_4-4.mid");
+    let end = 12.0;
+    let notes: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < end - 0.1).collect();
+    let take = play(&kit, &perf, &map, &planned, end).unwrap();
+    let (of, played) = match_contacts(&notes, &take.messages);
+    let cross: Vec<usize> = (0..notes.len()).filter(|&i| notes[i].zone == Zone::CrossStick).collect();
+    let missed: Vec<f64> = cross.iter().filter(|&&i| !played[i]).map(|&i| notes[i].time_s).collect();
+    let stray_hoop = of.iter().zip(&take.messages).filter(|(o, m)| o.is_none() && m.piece.ends_with("_rim")).count();
+    eprintln!(
+        "bomba, first {end} s: {} cross-sticks, missed at {missed:?}; {stray_hoop} hoop contacts that played no note",
+        cross.len()
+    );
+    assert!(cross.len() >= 10, "{} cross-sticks", cross.len());
+    assert!(missed.is_empty(), "cross-sticks missed at {missed:?}");
+    assert!(stray_hoop <= 1, "{stray_hoop} hoop contacts played no note");
+}
+
 /// A varied handful of validation takes, each rendered physically (the first 20 s of the
 /// longer ones): a fast jazz ride pattern, a fill, a take in 3/4, a take with cross-sticks.
 /// Each holds what the physical render reaches today (README, "Physical render").
