@@ -157,15 +157,36 @@ impl AudioClock {
 
     /// As [`AudioClock::block`], with the host's measure of the callback's lateness, up to a
     /// constant, s (cpal: the callback instant less the playback instant).
+    ///
+    /// The host's figure is heard only while the loop is settled: not in the
+    /// [`SETTLE_BLOCKS`] after a lock, not in a block after an xrun, not in one that re-locks.
+    /// Around a stall JACK's own frame clock is re-locking too, and its cycle stamps are off
+    /// by tens of ms (a 30 ms stall of jackd: one callback told 25 ms early); taken as the
+    /// floor, such a figure would make every later callback look late by it, and every
+    /// sound late as long as the floor remembers (hours).
     pub fn block_told(&mut self, entered: Instant, frames: usize, told_late_s: f64) -> Instant {
-        if !told_late_s.is_finite() {
+        let settled = matches!(self.state, Some(s) if s.age > SETTLE_BLOCKS) && !self.pending;
+        if !told_late_s.is_finite() || !settled {
             return self.block(entered, frames);
         }
         let period = frames as f64 * self.nominal;
-        self.told_floor = (self.told_floor + FORGET * period).min(told_late_s);
+        let floor = (self.told_floor + FORGET * period).min(told_late_s);
         // No more than a jump that re-locks: a host's number that large is not lateness.
-        let late = (told_late_s - self.told_floor).clamp(0.0, self.relock_s.max(0.010));
-        self.block(entered.checked_sub(Duration::from_secs_f64(late)).unwrap_or(entered), frames)
+        let late = (told_late_s - floor).clamp(0.0, self.relock_s.max(0.010));
+        let heard = entered.checked_sub(Duration::from_secs_f64(late)).unwrap_or(entered);
+        if self.jumps(heard) {
+            return self.block(entered, frames);
+        }
+        self.told_floor = floor;
+        self.block(heard, frames)
+    }
+
+    /// Whether a callback at `entered` is further from the loop's prediction than a re-lock.
+    fn jumps(&self, entered: Instant) -> bool {
+        self.state.is_some_and(|s| {
+            let predicted = s.start_s + s.frames as f64 * s.rate;
+            (entered.saturating_duration_since(s.base).as_secs_f64() - predicted).abs() > self.relock_s
+        })
     }
 
     /// A callback entered at `entered` renders the next `frames` samples: the instant at
@@ -183,7 +204,7 @@ impl AudioClock {
                 let predicted = s.start_s + s.frames as f64 * s.rate;
                 let measured = entered.saturating_duration_since(s.base).as_secs_f64();
                 let e = measured - predicted;
-                if e.abs() > self.relock_s {
+                if self.jumps(entered) {
                     self.relocks += 1;
                     Locked::new(entered, s.rate, frames)
                 } else {
@@ -376,5 +397,35 @@ mod tests {
         println!("told: {:.2} ms off at most; alone: {:.2} ms", worst * 1e3, worst_alone * 1e3);
         assert!(worst < 0.0005, "told: {:.2} ms off", worst * 1e3);
         assert!(worst_alone > 0.002, "alone the loop cannot know: {:.2} ms off", worst_alone * 1e3);
+    }
+
+    /// jackd stalls 30 ms (measured: SIGSTOP on a dummy-driver jackd): the stream resumes
+    /// 30 ms later, the callback that comes then is told 26 ms early (JACK's cycle stamp,
+    /// re-locking itself), another a few blocks on 32 ms early, the xrun reported a block
+    /// late. The blocks after the settle stay where the stream has them; taken as the floor,
+    /// the first figure put every later block 21 ms early (every sound 21 ms late) for hours.
+    #[test]
+    fn the_hosts_figures_around_a_stall_are_not_taken() {
+        let mut rng = crate::rng::Rng::new(9);
+        let base = Instant::now();
+        let mut clock = AudioClock::new(FS);
+        let period = N as f64 / FS;
+        let mut worst = 0.0f64;
+        for k in 0..3000 {
+            let truth = 0.1 + k as f64 * period + if k >= 1000 { 0.03 } else { 0.0 };
+            let late = 0.0003 * rng.unit() as f64;
+            let told = match k {
+                1000 => -0.0364,
+                1004 => -0.0423,
+                _ => late - 0.0106,
+            };
+            clock.xrun_seen(u64::from(k > 1000));
+            let got = clock.block_told(base + Duration::from_secs_f64(truth + late), N, told);
+            if k > 1000 + 2 * SETTLE_BLOCKS as usize || (200..1000).contains(&k) {
+                worst = worst.max((got.saturating_duration_since(base).as_secs_f64() - truth).abs());
+            }
+        }
+        println!("{:.2} ms off at most, {} re-locks", worst * 1e3, clock.relocks);
+        assert!(worst < 0.0005, "{:.2} ms off", worst * 1e3);
     }
 }

@@ -5,13 +5,16 @@
 //! stay 1 ms apart whatever the period, where stamping on arrival would put every event of a
 //! cycle at the same moment (up to a period, 5.3 ms at 256 frames, of jitter).
 //!
-//! An event with offset `t` in a cycle that began at `current_usecs` is stamped at
-//! `current_usecs + t`: the cycle's start on JACK's own clock (a DLL over its driver's
-//! wake-ups), which the output stream's blocks are placed on too (`sound::audio_clock`). The
-//! moment the callback happened to run does not enter: a callback woken 4 ms late by a busy
-//! machine would otherwise make its notes sound 4 ms late. JACK's clock and [`Instant`] are
-//! both the monotonic clock; the offset between them is read in the callback
-//! (`jack_get_time` against `Instant::now`).
+//! An event with offset `t` in a cycle is stamped at the cycle's start plus `t`: the callback's
+//! entry less the time JACK says has passed since its driver woke for the cycle
+//! (`jack_frames_since_cycle_start`), the measure the output stream's blocks are placed by too
+//! (`sound::audio_clock`). The moment the callback happened to run does not enter: a callback
+//! woken 4 ms late by a busy machine would otherwise make its notes sound 4 ms late.
+//!
+//! Not `jack_get_cycle_times`: its cycle start comes from JACK's DLL over the driver's
+//! wake-ups, which a stall does not reset. Measured after jackd stopped for 40 ms (dummy
+//! driver): the DLL put the cycle's start 34 ms too early and took over a second to come
+//! back, so every note played in that second sounded up to 19 ms early.
 
 use super::{EventSink, LiveMidiError, PortChange};
 use jack::{AsyncClient, Client, ClientOptions, Control, MidiIn, Port, PortFlags, ProcessHandler, ProcessScope};
@@ -19,8 +22,9 @@ use std::time::{Duration, Instant};
 
 const MIDI_TYPE: &str = "8 bit raw midi";
 const OUR_PORT: &str = "midi_in";
-/// A callback later than this after its cycle's start means JACK's clock is not ours, µs.
-const MAX_LATE_US: u64 = 100_000;
+/// A callback later than this after its cycle's start means JACK's figure is not to be
+/// believed, s.
+const MAX_LATE_S: f64 = 0.1;
 
 fn open(client_name: &str) -> Result<Client, LiveMidiError> {
     Client::new(client_name, ClientOptions::NO_START_SERVER)
@@ -53,12 +57,12 @@ pub struct Handler {
 impl ProcessHandler for Handler {
     fn process(&mut self, client: &Client, ps: &ProcessScope) -> Control {
         let now = Instant::now();
-        // The cycle's start: how long ago JACK's clock says it was (the callback's own entry,
-        // should the server not say, or say something no late wake-up explains).
-        let since = ps.cycle_times().map_or(0, |t| client.time().saturating_sub(t.current_usecs));
-        let since = if since < MAX_LATE_US { since } else { 0 };
-        let start = now.checked_sub(Duration::from_micros(since)).unwrap_or(now);
+        // The cycle's start: how long ago JACK says its driver woke for it (the callback's own
+        // entry, should it say something no late wake-up explains).
         let (frames, rate) = (ps.n_frames(), f64::from(client.sample_rate().max(1)));
+        let since = f64::from(ps.frames_since_cycle_start()) / rate;
+        let since = if since < MAX_LATE_S { since } else { 0.0 };
+        let start = now.checked_sub(Duration::from_secs_f64(since)).unwrap_or(now);
         for ev in self.port.iter(ps) {
             let later = f64::from(ev.time.min(frames)) / rate;
             self.sink.handle_at(ev.bytes, start + Duration::from_secs_f64(later));
