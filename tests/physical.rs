@@ -181,8 +181,9 @@ fn a_groove_midi_funk_take_is_played_by_the_body_and_its_pedals() {
         assert!(!pedal.is_empty() && pedal.iter().all(|p| *p), "{piece}: {pedal:?}");
     }
     assert!(mean.abs() <= 1.0 && sd <= 2.5, "timing {mean:+.2} / {sd:.2} ms");
-    // The rehearsal's learned targets can press a shaft into a hoop (README: penetration).
-    assert!(take.max_penetration_m <= 0.012, "sank {} m", take.max_penetration_m);
+    // The kit is rigid to the body: no stick sinks into a piece (11.9 mm over the split
+    // with rapier's soft default, `body::model::KIT_CONTACT_HZ`).
+    assert!(take.max_penetration_m <= 0.002, "sank {} m", take.max_penetration_m);
     // Bounded: the seated body's potential energy plus the strokes' kinetic energy.
     assert!(take.max_energy_j < 1000.0, "{} J", take.max_energy_j);
     // Tips at 60 fps for the whole song.
