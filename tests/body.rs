@@ -60,6 +60,28 @@ fn ten_minutes_of_strokes_stay_finite_bounded_inside_the_limits_and_out_of_the_d
     assert!(strikes > 2000, "{strikes} strikes");
 }
 
+/// An arm pressing its stick into the snare head (its target 3 cm under the head for most of
+/// a second) does not sink it: the kit is rigid to the body (`KIT_CONTACT_HZ`). With rapier's
+/// soft default for a fixed body (60 Hz) the same press sank the stick 11.0 mm.
+#[test]
+fn a_stick_pressed_into_the_snare_head_does_not_sink_into_it() {
+    let mut d = drummer();
+    let plans = plans_for(&d, Style::Legato, None);
+    let hold = [plans[0].target(0.0), plans[1].target(0.0)];
+    let (point, normal) = (plans[0].point, plans[0].normal);
+    let mut touched = false;
+    for k in 0..10_000u32 {
+        // Down to the head over 0.2 s, then 3 cm under it.
+        let depth = (f64::from(k) / 2000.0).min(1.0) as f32;
+        let mut left = hold[0];
+        left.tip += (point - normal * 0.03 - left.tip) * depth;
+        d.step_tips(Mode::Himc, &[left, hold[1]], &mut |s: Strike| touched |= s.side == 0);
+    }
+    eprintln!("pressed into the snare: sank {:.2} mm", d.max_penetration_m() * 1e3);
+    assert!(touched, "the stick never reached the head");
+    assert!(d.max_penetration_m() < 0.001, "sank {:.2} mm", d.max_penetration_m() * 1e3);
+}
+
 #[test]
 fn a_stroke_aimed_at_the_snare_makes_one_contact_on_time_on_the_point() {
     let kit = Kit::builtin_default();
