@@ -25,6 +25,11 @@ const MIN_IMPULSE_NS: f32 = 1e-6;
 /// Slowest approach that is a strike; slower contacts are a stick settling onto a piece
 /// (after a bounce, or resting), which make no sound and send no message.
 pub const MIN_STRIKE_SPEED_MPS: f32 = 0.05;
+/// The same for a stick: a quarter of the slowest note's speed on the shipped kits (0.4 m/s
+/// at velocity 1). On a rigid kit (`model::KIT_CONTACT_HZ`) a stick pressed onto a cymbal
+/// and lifted a little settles back onto it at about 0.09 m/s (`drumsim check`'s tenuto
+/// strokes on the rearranged kit's hi-hat, 53 ms after each stroke).
+pub const MIN_STICK_STRIKE_SPEED_MPS: f32 = 0.1;
 
 /// A new contact of a stick tip with a kit piece.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -162,7 +167,7 @@ impl ContactTracker {
                 } else {
                     0.0
                 };
-                if last.is_nan() && speed_mps >= MIN_STRIKE_SPEED_MPS {
+                if last.is_nan() && speed_mps >= MIN_STICK_STRIKE_SPEED_MPS {
                     let surface = &model.surfaces[k];
                     // A hoop sounds as a small plate standing for the whole ring: a contact
                     // anywhere on the ring strikes it at its centre, as direct mode does (the
