@@ -161,7 +161,7 @@ impl AudioClock {
     /// The host's figure is heard only while the loop is settled: not in the
     /// [`SETTLE_BLOCKS`] after a lock, not in a block after an xrun, not in one that re-locks.
     /// Around a stall JACK's own frame clock is re-locking too, and its cycle stamps are off
-    /// by tens of ms (a 30 ms stall of jackd: one callback told 25 ms early); taken as the
+    /// by tens of ms (a 30 ms stall of jackd: one callback told 26 ms early); taken as the
     /// floor, such a figure would make every later callback look late by it, and every
     /// sound late as long as the floor remembers (hours).
     pub fn block_told(&mut self, entered: Instant, frames: usize, told_late_s: f64) -> Instant {
@@ -181,7 +181,8 @@ impl AudioClock {
         self.block(heard, frames)
     }
 
-    /// Whether a callback at `entered` is further from the loop's prediction than a re-lock.
+    /// Whether a callback at `entered` is further from the loop's prediction than a re-lock
+    /// (as [`AudioClock::block`] judges it).
     fn jumps(&self, entered: Instant) -> bool {
         self.state.is_some_and(|s| {
             let predicted = s.start_s + s.frames as f64 * s.rate;
@@ -204,7 +205,7 @@ impl AudioClock {
                 let predicted = s.start_s + s.frames as f64 * s.rate;
                 let measured = entered.saturating_duration_since(s.base).as_secs_f64();
                 let e = measured - predicted;
-                if self.jumps(entered) {
+                if e.abs() > self.relock_s {
                     self.relocks += 1;
                     Locked::new(entered, s.rate, frames)
                 } else {
