@@ -76,14 +76,42 @@ pub struct Conductor {
     /// The targets the last period ended on before the learned offsets and clearances: where
     /// the plan wants the tips.
     aims: [Vector; 2],
-    /// Live play: the plan given up at the last [`Conductor::replan`] and when, faded out
-    /// over [`REPLAN_FADE_S`].
-    previous: Option<(TipTargets, f64)>,
+    /// Live play: when `targets` took over from the plan before ([`Conductor::replan`]),
+    /// and the plans before it still fading out, oldest first, each with when it took over.
+    since: Taken,
+    fading: [Option<(TipTargets, Taken)>; FADING],
 }
 
-/// A newer plan takes over from the one before it over this long, s: a stroke already under
-/// way changes course smoothly, not in one period.
+/// When a live plan took over from the plans before it, and how long each hand's fade
+/// lasts, s.
+#[derive(Debug, Clone, Copy)]
+struct Taken {
+    at: f64,
+    fade: [f64; 2],
+}
+
+impl Taken {
+    fn over_by(&self) -> f64 {
+        self.at + self.fade[0].max(self.fade[1])
+    }
+}
+
+/// At most this many plans given up are still fading out at once (a new plan every 50 ms,
+/// each faded in over at most [`MAX_REPLAN_FADE_S`], overlaps the four before it at most).
+pub const FADING: usize = 5;
+
+/// A newer plan takes over from the one before it over this long at least, s: a stroke
+/// already under way changes course smoothly, not in one period.
 pub const REPLAN_FADE_S: f64 = 0.080;
+
+/// A hand whose new plan differs from where its targets are heads for the new plan no
+/// faster than this peak acceleration allows (a minimum-jerk move of `d` over `T` peaks at
+/// 5.77 d / T^2), m/s^2, over at most [`MAX_REPLAN_FADE_S`]. A note learned of a lookahead
+/// before its stroke rewrites the hand's path, and the hand model puts the hand over its
+/// piece well before the stroke: over 80 ms, a left hand sent 30 cm from a tom to the
+/// snare's cross-stick moved at 7 m/s and overshot by 10 cm, then met the hoop 14 ms late.
+pub const REPLAN_ACCEL_MPS2: f64 = 40.0;
+pub const MAX_REPLAN_FADE_S: f64 = 0.2;
 
 fn lerp(a: &ArmTarget, b: &ArmTarget, x: f32) -> ArmTarget {
     ArmTarget { tip: a.tip.lerp(b.tip, x), dir: a.dir.lerp(b.dir, x).normalize_or(Vector::Y) }
@@ -108,25 +136,35 @@ fn guard(
     targets.keep_out(h, t, target, sim_tip, plates.iter().map(|&i| (i, &surfaces[i])), piece_of);
 }
 
-/// Hand `h`'s target at `t` from `targets`, blended from the plan before them while that
-/// fades out (live play).
+/// Hand `h`'s target at `t` from `targets` (which took over at `since`), blended from the
+/// plans before them while they fade out (live play).
 fn target_at(
     targets: &TipTargets,
-    previous: &Option<(TipTargets, f64)>,
+    since: Taken,
+    fading: &[Option<(TipTargets, Taken)>; FADING],
     h: usize,
     t: f64,
     touched: Option<(f64, f64)>,
 ) -> ArmTarget {
-    let new = targets.at(h, t, touched);
-    match previous {
-        Some((old, since)) if t < since + REPLAN_FADE_S => {
-            let w = ((t - since) / REPLAN_FADE_S).clamp(0.0, 1.0) as f32;
-            // Minimum-jerk weight: no kink where the fade starts or ends.
-            let w = w * w * w * (10.0 - 15.0 * w + 6.0 * w * w);
-            lerp(&old.at(h, t, touched), &new, w)
-        }
-        _ => new,
+    // Each plan fades in from the blend of the plans before it: a plan that comes while the
+    // one before is still fading in takes over from where the targets are, not from that
+    // plan alone (which left a jump of a fifth of the two plans' difference: 6 cm in one
+    // period where a new note sent a hand from a tom to the snare).
+    let plans = fading.iter().flatten().map(|(p, s)| (p, *s)).chain(std::iter::once((targets, since)));
+    let mut acc: Option<ArmTarget> = None;
+    for (plan, since) in plans {
+        let new = plan.at(h, t, touched);
+        acc = Some(match acc {
+            Some(old) if t < since.at + since.fade[h] => {
+                let w = ((t - since.at) / since.fade[h]).clamp(0.0, 1.0) as f32;
+                // Minimum-jerk weight: no kink where the fade starts or ends.
+                let w = w * w * w * (10.0 - 15.0 * w + 6.0 * w * w);
+                lerp(&old, &new, w)
+            }
+            _ => new,
+        });
     }
+    acc.unwrap_or_else(|| targets.at(h, t, touched))
 }
 
 /// The task period (from the preroll's start) that ends at performance time `t`.
@@ -195,24 +233,68 @@ impl Conductor {
             .collect();
         let from = [targets.at(0, t, None), targets.at(1, t, None)];
         let state = BodyState { drummer, from, touched: [None; 2], pedals: bodies, kick_touched: None, t };
-        Conductor { state, targets, pedal_targets, plates, piece_of, aims: [from[0].tip, from[1].tip], previous: None }
+        Conductor {
+            state,
+            targets,
+            pedal_targets,
+            plates,
+            piece_of,
+            aims: [from[0].tip, from[1].tip],
+            since: Taken { at: f64::NEG_INFINITY, fade: [REPLAN_FADE_S; 2] },
+            fading: Default::default(),
+        }
     }
 
-    /// Follow a newer plan from the next period on (live play), faded in over
-    /// [`REPLAN_FADE_S`]; the plans given up (the one faded out before, and the pedals') are
-    /// returned, to be dropped off the physics thread.
-    pub fn replan(
-        &mut self,
-        targets: TipTargets,
-        pedal_targets: Option<PedalTargets>,
-    ) -> (Option<TipTargets>, Option<PedalTargets>) {
+    /// Follow a newer plan from the next period on (live play), faded in from where the
+    /// targets are over [`REPLAN_FADE_S`] or longer (a hand sent far, [`REPLAN_ACCEL_MPS2`]); the plans given up (those no longer
+    /// fading, and the pedals') are returned, to be dropped off the physics thread.
+    pub fn replan(&mut self, targets: TipTargets, pedal_targets: Option<PedalTargets>) -> super::paced::Spent {
+        let now = self.state.t;
+        // Each hand's fade: how far the new plan is from where its targets are, over the
+        // fade's first 80 ms.
+        let fade: [f64; 2] = std::array::from_fn(|h| {
+            let touched = self.state.touched[h];
+            let far = [0.0, 0.5, 1.0]
+                .map(|x| {
+                    let t = now + x * REPLAN_FADE_S;
+                    let was = target_at(&self.targets, self.since, &self.fading, h, t, touched);
+                    (targets.at(h, t, touched).tip - was.tip).length()
+                })
+                .into_iter()
+                .fold(0.0f32, f32::max);
+            (5.77 * f64::from(far) / REPLAN_ACCEL_MPS2).sqrt().clamp(REPLAN_FADE_S, MAX_REPLAN_FADE_S)
+        });
         let old = std::mem::replace(&mut self.targets, targets);
-        let faded = self.previous.replace((old, self.state.t)).map(|(t, _)| t);
+        let old_since = std::mem::replace(&mut self.since, Taken { at: now, fade });
+        let mut given: [Option<TipTargets>; FADING] = Default::default();
+        let mut out = 0;
+        if self.fading[FADING - 1].is_some() {
+            // Full (plans coming faster than they fade): the oldest goes.
+            given[out] = self.fading[0].take().map(|(p, _)| p);
+            out += 1;
+            self.fading.rotate_left(1);
+        }
+        if let Some(slot) = self.fading.iter_mut().find(|f| f.is_none()) {
+            *slot = Some((old, old_since));
+        }
+        // A plan whose fade is over hides every plan before it from now on.
+        let n = self.fading.iter().filter(|f| f.is_some()).count();
+        let done = (1..n).rev().find(|&j| self.fading[j].as_ref().is_some_and(|(_, s)| s.over_by() <= now));
+        if let Some(j) = done {
+            for k in 0..j {
+                let plan = self.fading[k].take().map(|(p, _)| p);
+                if let Some(slot) = given.get_mut(out) {
+                    *slot = plan;
+                    out += 1;
+                }
+            }
+            self.fading.rotate_left(j);
+        }
         let old_pedals = match (pedal_targets, &mut self.pedal_targets) {
             (Some(new), Some(current)) => Some(std::mem::replace(current, new)),
             _ => None,
         };
-        (faded, old_pedals)
+        (given, old_pedals)
     }
 
     /// Let `n` task periods go by unplayed (a live body that fell behind the wall clock):
@@ -295,8 +377,8 @@ impl Conductor {
         let sim = st.drummer.tips(Mode::Himc);
         let p1 = period_index(t1);
         let mut to = [
-            target_at(&self.targets, &self.previous, 0, t1, st.touched[0]),
-            target_at(&self.targets, &self.previous, 1, t1, st.touched[1]),
+            target_at(&self.targets, self.since, &self.fading, 0, t1, st.touched[0]),
+            target_at(&self.targets, self.since, &self.fading, 1, t1, st.touched[1]),
         ];
         self.aims = to.map(|a| a.tip);
         let surfaces = st.drummer.surfaces();
@@ -310,7 +392,7 @@ impl Conductor {
         let via: [Option<(usize, ArmTarget)>; 2] = std::array::from_fn(|h| {
             let tb = self.targets.bottom_within(h, st.t, t1)?;
             let kv = (((tb - st.t) / DT_S as f64).round() as usize).clamp(1, STEPS_PER_PERIOD - 1);
-            let mut v = target_at(&self.targets, &self.previous, h, tb, st.touched[h]);
+            let mut v = target_at(&self.targets, self.since, &self.fading, h, tb, st.touched[h]);
             v.tip += self.targets.offset(h, p1);
             guard(&self.targets, &self.plates, &self.piece_of, surfaces, h, tb, &mut v, sim[h]);
             Some((kv, v))
@@ -359,7 +441,7 @@ impl Conductor {
             for h in 0..2 {
                 if st.touched[h] != before[h] && k + 1 < STEPS_PER_PERIOD {
                     // Mid-period: the rest of the period heads for the rebound at once.
-                    to[h] = target_at(&self.targets, &self.previous, h, t1, st.touched[h]);
+                    to[h] = target_at(&self.targets, self.since, &self.fading, h, t1, st.touched[h]);
                     self.aims[h] = to[h].tip;
                     to[h].tip += self.targets.offset(h, p1);
                     let (surfaces, tip) = (st.drummer.surfaces(), st.drummer.tips(Mode::Himc)[h]);
@@ -372,5 +454,55 @@ impl Conductor {
         st.from = to;
         st.t = t1;
         debug_assert!((st.drummer.time_s() - offset - st.t).abs() < DT_S as f64);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::plan::{plan_hands, Assignment, StrokeSettings};
+    use crate::motion::track::Pose;
+
+    /// Tip targets that hold both hands still, the left one at `left`.
+    fn still_at(shape: &TargetShape, left: [f32; 3]) -> TipTargets {
+        let l = Pose { pos: left, rot: [1.0, 0.0, 0.0, 0.0] };
+        let r = Pose { pos: [0.3, 0.0, 2.0], rot: [1.0, 0.0, 0.0, 0.0] };
+        let none = Assignment { hands: Vec::new(), merged: Vec::new(), dropped: 0 };
+        shape.targets(&plan_hands(&vec![[l, r]; 60], 60.0, &[], &none, StrokeSettings::default()))
+    }
+
+    #[test]
+    fn a_plan_that_comes_while_the_one_before_fades_in_takes_over_from_where_the_targets_are() {
+        let kit = Kit::builtin_default();
+        let settings = DrummerSettings::default();
+        let shape = TargetShape::of(&Drummer::new(&kit, settings.clone()).unwrap());
+        // High over the kit, clear of every piece: the targets are the plans' own.
+        let (a, b) = ([-0.3, 0.0, 2.0], [-0.3, 0.3, 2.0]);
+        let mut c = Conductor::live(&kit, settings, still_at(&shape, a), None, 0.0).unwrap();
+        let mut tips = vec![c.aims()[0]];
+        for p in 0..120 {
+            // A plan with the hand 30 cm away, then (50 ms later, the first still fading in)
+            // the same plan again: live play's plans every 50 ms.
+            if p == 2 || p == 14 {
+                let (given, _) = c.replan(still_at(&shape, b), None);
+                assert!(given.iter().all(Option::is_none), "the plans before still fade");
+            }
+            c.period(&mut |_| {});
+            tips.push(c.aims()[0]);
+        }
+        let step = tips.windows(2).map(|w| (w[1] - w[0]).length()).fold(0.0f32, f32::max);
+        let dt = 1.0 / TASK_HZ as f32;
+        let accel = tips.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).length() / (dt * dt)).fold(0.0f32, f32::max);
+        let end = tips[tips.len() - 1];
+        eprintln!("largest step {:.2} cm a period, acceleration {accel:.0} m/s^2", step * 100.0);
+        // 30 cm, minimum-jerk, the acceleration near the one allowed (two fades overlapping:
+        // 1.3 cm a period at most, 58 m/s^2). A plan taking over from the one fading in
+        // alone jumped 9.5 cm in a period.
+        assert!(step < 0.015, "the target jumped {:.1} cm in a period", step * 100.0);
+        assert!(accel < 1.5 * REPLAN_ACCEL_MPS2 as f32, "{accel:.0} m/s^2");
+        assert!((end - tips[0] - Vector::new(0.0, 0.3, 0.0)).length() < 1e-3, "ends on the new plan: {end:?}");
+        // A third plan, the fades over: the two before are given back.
+        let (given, _) = c.replan(still_at(&shape, b), None);
+        assert_eq!(given.iter().filter(|g| g.is_some()).count(), 2);
     }
 }

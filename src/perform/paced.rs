@@ -53,8 +53,8 @@ pub struct BodyPlan {
     pub pedals: Option<PedalTargets>,
 }
 
-/// A plan the body gave up, dropped off the physics thread.
-pub type Spent = (Option<TipTargets>, Option<PedalTargets>);
+/// The plans the body gave up at one replan, dropped off the physics thread.
+pub type Spent = ([Option<TipTargets>; super::conductor::FADING], Option<PedalTargets>);
 
 /// Makes body plans from window plans (on the planning thread).
 pub struct BodyPlanner {

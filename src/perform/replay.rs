@@ -62,6 +62,22 @@ pub fn replay(
     end_s: f64,
     s: &ReplaySettings,
 ) -> anyhow::Result<Replayed> {
+    replay_observed(kit, map, model, library, perf, end_s, s, &mut |_, _, _| {})
+}
+
+/// [`replay`], showing `observe` the body after every physics step with the step's
+/// performance time and its targets (for traces).
+#[allow(clippy::too_many_arguments)]
+pub fn replay_observed(
+    kit: &Kit,
+    map: &NoteMap,
+    model: HandModel,
+    library: Library,
+    perf: &Performance,
+    end_s: f64,
+    s: &ReplaySettings,
+    observe: &mut impl FnMut(&Drummer, f64, &[crate::body::ik::ArmTarget; 2]),
+) -> anyhow::Result<Replayed> {
     let settings = DrummerSettings::default();
     let shape = TargetShape::of(&Drummer::new(kit, settings.clone())?);
     let planner = BodyPlanner::new(shape, kit, map);
@@ -92,10 +108,13 @@ pub fn replay(
             plans += 1;
             next_plan += s.plan_every_s;
         }
-        c.period(&mut |mut st| {
-            st.time_s -= LEAD_IN_S;
-            strikes.push(st)
-        });
+        c.period_observed(
+            &mut |mut st| {
+                st.time_s -= LEAD_IN_S;
+                strikes.push(st)
+            },
+            &mut |d, t, tg| observe(d, t - LEAD_IN_S, tg),
+        );
     }
     Ok(Replayed { strikes, surfaces, plans })
 }
