@@ -171,10 +171,10 @@ fn a_groove_midi_take_played_live_is_struck_by_the_body_each_note_lookahead_afte
     let periods = count(" periods at 250 Hz");
     let lost = count(" behind (") + count(" dropped to catch up");
     assert!(lost * 100 <= periods, "the body fell behind in {lost} of {periods} periods: {body}");
-    // What the live physical drummer reaches today (the issue's targets: recall and
-    // precision 99 %, mean within 2 ms, sd 3 ms; README, "The live physical drummer").
-    assert!(recall >= 0.97 && precision >= 0.90, "recall {recall:.3}, precision {precision:.3}");
-    assert!(mean.abs() <= 0.002 && sd <= 0.0045, "contact - note: mean {mean:+.4} s, sd {sd:.4} s");
+    // The issue's targets: recall and precision 99 %, mean within 2 ms, sd 3 ms (README, "The
+    // live physical drummer").
+    assert!(recall >= 0.99 && precision >= 0.99, "recall {recall:.3}, precision {precision:.3}");
+    assert!(mean.abs() <= 0.002 && sd <= 0.003, "contact - note: mean {mean:+.4} s, sd {sd:.4} s");
 }
 
 /// The same drummer with its sound in this process (`--audio jack`, no `--sound-to`): the
