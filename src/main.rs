@@ -28,7 +28,8 @@ struct Cli {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum SoundMode {
-    /// Strikes made by the simulated body's sticks (render; live: not built yet).
+    /// Strikes made by the simulated body's sticks, kick beater and hi-hat pedal (render; live,
+    /// where the body plays each note --lookahead-ms after it).
     Physical,
     /// Strikes made straight from MIDI notes.
     Direct,
