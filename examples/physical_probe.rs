@@ -33,6 +33,9 @@ fn main() {
         if let Some(a) = std::env::var("ATTEMPTS").ok().and_then(|v| v.parse().ok()) {
             settings.attempts = a;
         }
+        if let Some(a) = std::env::var("AIM_MM").ok().and_then(|v| v.parse::<f32>().ok()) {
+            settings.aim_tolerance_m = a / 1e3;
+        }
         if let Some(a) = std::env::var("SNAP").ok().and_then(|v| v.parse().ok()) {
             settings.snapshot_every = a;
         }
@@ -135,6 +138,8 @@ fn main() {
             // One line per take with everything a split-wide figure needs.
             let mut vel_speed = Vec::new();
             let mut ipd_mm = Vec::new();
+            // Each IPD's piece, zone and how far from the tip its contact was, m.
+            let mut ipd_of = Vec::new();
             for (i, k) in first.iter().enumerate() {
                 let Some(k) = *k else { continue };
                 let m = &take_.messages[k];
@@ -155,12 +160,13 @@ fn main() {
                     let (u, v) = drumsim::body::model::surface_basis(n);
                     let d = rapier3d::math::Vector::from(point) - rapier3d::math::Vector::from(piece.position_m);
                     ipd_mm.push(1e3 * (m.x_m - d.dot(u)).hypot(m.y_m - d.dot(v)));
+                    ipd_of.push((m.piece.clone(), format!("{:?}", hand[i].zone), part));
                 }
             }
             let line = serde_json::json!({
                 "take": take, "seconds": perf.notes_end_s, "wall_s": wall, "notes": hand.len(), "hit": hit,
                 "contacts": of.len(), "spurious": spurious.len(), "timing_ms": errs,
-                "vel_speed": vel_speed, "ipd_mm": ipd_mm, "sank_mm": take_.max_penetration_m * 1e3,
+                "vel_speed": vel_speed, "ipd_mm": ipd_mm, "ipd_of": ipd_of, "sank_mm": take_.max_penetration_m * 1e3,
                 "energy_j": take_.max_energy_j, "replays": take_.replays, "reasons": take_.reasons, "rehearsed": take_.rehearsed, "finite": take_.finite, "deepest_at": take_.deepest_at,
             });
             println!("{line}");

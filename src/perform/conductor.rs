@@ -111,6 +111,7 @@ pub const REPLAN_FADE_S: f64 = 0.080;
 /// piece well before the stroke: over 80 ms, a left hand sent 30 cm from a tom to the
 /// snare's cross-stick moved at 7 m/s and overshot by 10 cm, then met the hoop 14 ms late.
 pub const REPLAN_ACCEL_MPS2: f64 = 40.0;
+/// The longest a plan takes to fade in, s (30 cm at [`REPLAN_ACCEL_MPS2`]).
 pub const MAX_REPLAN_FADE_S: f64 = 0.2;
 
 fn lerp(a: &ArmTarget, b: &ArmTarget, x: f32) -> ArmTarget {
@@ -246,8 +247,9 @@ impl Conductor {
     }
 
     /// Follow a newer plan from the next period on (live play), faded in from where the
-    /// targets are over [`REPLAN_FADE_S`] or longer (a hand sent far, [`REPLAN_ACCEL_MPS2`]); the plans given up (those no longer
-    /// fading, and the pedals') are returned, to be dropped off the physics thread.
+    /// targets are over [`REPLAN_FADE_S`] or longer (a hand sent far, [`REPLAN_ACCEL_MPS2`]);
+    /// the plans given up (those no longer fading, and the pedals') are returned, to be
+    /// dropped off the physics thread.
     pub fn replan(&mut self, targets: TipTargets, pedal_targets: Option<PedalTargets>) -> super::paced::Spent {
         let now = self.state.t;
         // Each hand's fade: how far the new plan is from where its targets are, over the
