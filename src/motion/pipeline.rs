@@ -94,7 +94,7 @@ pub fn perform_planned(
     predicted: &[[Pose; 2]],
     library: &Library,
 ) -> Result<Planned, MotionError> {
-    perform_planned_indexed(perf, map, kit, predicted, library, &MatchIndex::of(library)?)
+    perform_planned_indexed(perf, map, kit, predicted, (library, &MatchIndex::of(library)?), &|_| None)
 }
 
 /// [`perform_planned`] on the performance's piano roll made beforehand (`piano_roll(perf,
@@ -107,20 +107,21 @@ pub fn perform_planned_roll(
     predicted: &[[Pose; 2]],
     library: &Library,
 ) -> Result<Planned, MotionError> {
-    planned_with(perf, map, roll, kit, predicted, Some((library, &MatchIndex::of(library)?)))
+    planned_with(perf, map, roll, kit, predicted, Some((library, &MatchIndex::of(library)?)), &|_| None)
 }
 
 /// [`perform_planned`] with the library's index made beforehand (`MatchIndex::of(library)`):
-/// for a caller that plans over and over (the live motion stage).
+/// for a caller that plans over and over (the live motion stage), the notes `kept` names a
+/// hand for given to that hand ([`plan::assign_hands_kept`]).
 pub fn perform_planned_indexed(
     perf: &Performance,
     map: &NoteMap,
     kit: &Kit,
     predicted: &[[Pose; 2]],
-    library: &Library,
-    index: &MatchIndex,
+    (library, index): (&Library, &MatchIndex),
+    kept: &dyn Fn(&HandNote) -> Option<usize>,
 ) -> Result<Planned, MotionError> {
-    planned_with(perf, map, &piano_roll(perf, map), kit, predicted, Some((library, index)))
+    planned_with(perf, map, &piano_roll(perf, map), kit, predicted, Some((library, index)), kept)
 }
 
 /// What the simulated body plays from, and no more: the planned hands and the feet (the
@@ -133,7 +134,19 @@ pub fn perform_planned_for_body(
     kit: &Kit,
     predicted: &[[Pose; 2]],
 ) -> Result<Planned, MotionError> {
-    planned_with(perf, map, &piano_roll(perf, map), kit, predicted, None)
+    perform_planned_for_body_kept(perf, map, kit, predicted, &|_| None)
+}
+
+/// [`perform_planned_for_body`] with the notes `kept` names a hand for given to that hand
+/// ([`plan::assign_hands_kept`]).
+pub fn perform_planned_for_body_kept(
+    perf: &Performance,
+    map: &NoteMap,
+    kit: &Kit,
+    predicted: &[[Pose; 2]],
+    kept: &dyn Fn(&HandNote) -> Option<usize>,
+) -> Result<Planned, MotionError> {
+    planned_with(perf, map, &piano_roll(perf, map), kit, predicted, None, kept)
 }
 
 fn planned_with(
@@ -143,6 +156,7 @@ fn planned_with(
     kit: &Kit,
     predicted: &[[Pose; 2]],
     upper: Option<(&Library, &MatchIndex)>,
+    kept: &dyn Fn(&HandNote) -> Option<usize>,
 ) -> Result<Planned, MotionError> {
     let frames = roll.len();
     if frames == 0 || perf.events.is_empty() {
@@ -168,7 +182,7 @@ fn planned_with(
         let f = ((t * FPS).round().max(0.0) as usize).min(frames - 1);
         predicted[f][h].stick_tip()
     };
-    let assignment = plan::assign_hands(&notes, &tip, &AssignSettings::default());
+    let assignment = plan::assign_hands_kept(&notes, &tip, kept, &AssignSettings::default());
     let planned = plan::plan_hands(predicted, FPS, &notes, &assignment, StrokeSettings::default());
     let feet = super::feet::feet(perf, map, frames, &mut Rng::new(0), super::feet::home_for(kit));
     // The animation: hands planned the same way over the prediction smoothed where it jumps

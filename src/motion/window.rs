@@ -11,7 +11,7 @@
 
 use super::hands::HandModel;
 use super::pipeline::{self, MotionError};
-use super::plan::PlannedHands;
+use super::plan::{HandNote, PlannedHands};
 use super::track::{Motion, MotionFrame, Pose, FPS};
 use super::upper::{Library, MatchIndex};
 use crate::kit::Kit;
@@ -22,6 +22,16 @@ use std::collections::VecDeque;
 pub const FADE_S: f64 = 0.1;
 /// Context kept before the shown time, s: the hand model and retrieval see this much past.
 pub const HISTORY_S: f64 = 2.0;
+
+/// A note the body strikes before this long after the moment the window ends minus the
+/// lookahead keeps the hand the plan before gave it, s: the body runs `LEAD_MS` (25 ms)
+/// ahead of its sound, so notes up to 75 ms ahead of the body, whose strokes are under way.
+/// A newer plan gave such a note to the other hand now and then (a jazz take's snare note
+/// taken from the right hand 150 ms after the body had struck it), and both hands' paths
+/// changed course. On 18 validation takes played live: recall 90.21 -> 91.66 %, precision
+/// 91.43 -> 90.97 % (kept for notes up to the body's moment only: 90.63 / 91.39 %; 200 ms:
+/// 91.45 / 89.59 %).
+pub const KEEP_HAND_S: f64 = 0.1;
 
 /// Most events a window holds: a drummer plays well under 100 notes in its 2.25 s, a broken
 /// controller may send thousands a second. Events past this are dropped and counted, so a
@@ -46,6 +56,8 @@ pub struct WindowMotion {
     /// Plan the upper body, face and animation hands too (false: only what the simulated
     /// body plays from, [`pipeline::perform_planned_for_body`]).
     upper: bool,
+    /// The hand each note of the last plan was given: (session time, kit piece, hand).
+    sticking: Vec<(f64, usize, usize)>,
 }
 
 /// One plan: motion at 60 fps from `start_s` (session clock).
@@ -112,6 +124,7 @@ impl WindowMotion {
             pedal_before: None,
             flooded: 0,
             upper: true,
+            sticking: Vec::new(),
         }
     }
 
@@ -178,10 +191,18 @@ impl WindowMotion {
             channel: self.map.channel,
         };
         let hands = pipeline::model_hands(&self.model, &perf, &self.map);
+        // Notes the body has struck, or strikes within the next 75 ms (a stroke under way),
+        // keep the hand the plan before gave them.
+        let cutoff = now_s - self.lookahead_s + KEEP_HAND_S;
+        let sticking = &self.sticking;
+        let kept = |n: &HandNote| {
+            let t = n.time_s + start;
+            (t < cutoff).then(|| sticking.iter().find(|s| (s.0 - t).abs() < 1e-6 && s.1 == n.piece).map(|s| s.2))?
+        };
         let planned = match &self.index {
-            _ if !self.upper => pipeline::perform_planned_for_body(&perf, &self.map, &self.kit, &hands)?,
+            _ if !self.upper => pipeline::perform_planned_for_body_kept(&perf, &self.map, &self.kit, &hands, &kept)?,
             Some(index) => {
-                pipeline::perform_planned_indexed(&perf, &self.map, &self.kit, &hands, &self.library, index)?
+                pipeline::perform_planned_indexed(&perf, &self.map, &self.kit, &hands, (&self.library, index), &kept)?
             }
             None => pipeline::perform_planned(&perf, &self.map, &self.kit, &hands, &self.library)?,
         };
@@ -197,6 +218,10 @@ impl WindowMotion {
             })
             .collect();
         debug_assert_eq!(planned.motion.fps, FPS);
+        self.sticking.clear();
+        for h in 0..2 {
+            self.sticking.extend(planned.hands.notes(h).map(|n| (n.time_s + start, n.piece, h)));
+        }
         Ok(WindowPlan { start_s: start, motion: planned.motion, notes, hands: planned.hands.shifted(start), perf })
     }
 }

@@ -91,6 +91,17 @@ type Entry = ((usize, usize), f64, usize);
 /// Assign `notes` (sorted by time) to hands. `predicted(hand, time_s)` is the hand model's
 /// stick tip.
 pub fn assign_hands(notes: &[HandNote], predicted: &dyn Fn(usize, f64) -> [f32; 3], s: &AssignSettings) -> Assignment {
+    assign_hands_kept(notes, predicted, &|_| None, s)
+}
+
+/// [`assign_hands`], with the notes `kept` names a hand for given to that hand (a live
+/// window's notes already played, which a newer plan must not give to the other hand).
+pub fn assign_hands_kept(
+    notes: &[HandNote],
+    predicted: &dyn Fn(usize, f64) -> [f32; 3],
+    kept: &dyn Fn(&HandNote) -> Option<usize>,
+    s: &AssignSettings,
+) -> Assignment {
     // One stroke per piece within `merge_s`: the DP sees only the leading notes.
     let mut leader: Vec<usize> = (0..notes.len()).collect();
     for i in 0..notes.len() {
@@ -101,7 +112,7 @@ pub fn assign_hands(notes: &[HandNote], predicted: &dyn Fn(usize, f64) -> [f32; 
     }
     let lead: Vec<usize> = (0..notes.len()).filter(|&i| leader[i] == i).collect();
     let strokes: Vec<HandNote> = lead.iter().map(|&i| notes[i]).collect();
-    let (hands, dropped) = assign_strokes(&strokes, predicted, s);
+    let (hands, dropped) = assign_strokes(&strokes, predicted, kept, s);
     let mut out = Assignment { hands: vec![None; notes.len()], merged: vec![false; notes.len()], dropped };
     for (k, &i) in lead.iter().enumerate() {
         out.hands[i] = hands[k];
@@ -120,6 +131,7 @@ pub fn assign_hands(notes: &[HandNote], predicted: &dyn Fn(usize, f64) -> [f32; 
 fn assign_strokes(
     notes: &[HandNote],
     predicted: &dyn Fn(usize, f64) -> [f32; 3],
+    kept: &dyn Fn(&HandNote) -> Option<usize>,
     s: &AssignSettings,
 ) -> (Vec<Option<usize>>, usize) {
     let n = notes.len();
@@ -129,7 +141,10 @@ fn assign_strokes(
     // Per step, the live states: (hand of note i, other hand's last note or FREE), their
     // cost and their parent state's index in the previous step.
     let mut steps: Vec<Vec<Entry>> = Vec::with_capacity(n);
-    let here = |i: usize, h: usize| s.per_metre * dist(predicted(h, notes[i].time_s), notes[i].point);
+    let here = |i: usize, h: usize| {
+        let other = kept(&notes[i]).is_some_and(|k| k != h);
+        s.per_metre * dist(predicted(h, notes[i].time_s), notes[i].point) + if other { s.infeasible } else { 0.0 }
+    };
     steps.push((0..2).map(|h| ((h, FREE), here(0, h), 0)).collect());
     let mut slot = vec![usize::MAX; 2 * (s.memory + 1)];
     for i in 1..n {
@@ -227,6 +242,27 @@ mod tests {
         }
         let (notes, a) = hihat_right_snare_left(notes);
         each_on_its_predicted_hand(&notes, &a);
+    }
+
+    #[test]
+    fn a_note_kept_for_a_hand_goes_to_it_and_the_rest_follow_the_prediction() {
+        // Snare backbeats the left hand is predicted on; the third was given to the right hand
+        // by an earlier plan (live play), which keeps it.
+        let mut notes: Vec<_> = (0..8).map(|k| note(k as f64 * 0.25, 1, -0.3)).collect();
+        notes.extend((0..4).map(|k| note(0.125 + k as f64 * 0.5, 0, -0.1)));
+        notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        let pred = |h: usize, _t: f64| if h == 1 { [-0.3, 0.4, 0.75] } else { [-0.1, 0.4, 0.75] };
+        let kept = |n: &HandNote| (n.piece == 0 && (n.time_s - 1.125).abs() < 1e-9).then_some(1);
+        let a = assign_hands_kept(&notes, &pred, &kept, &AssignSettings::default());
+        assert_eq!(a.dropped, 0);
+        for (n, h) in notes.iter().zip(&a.hands) {
+            let want = if n.piece == 1 || kept(n).is_some() { 1 } else { 0 };
+            assert_eq!(*h, Some(want), "{n:?}");
+        }
+        // Without it, the left hand.
+        let free = assign_hands(&notes, &pred, &AssignSettings::default());
+        let third = notes.iter().position(|n| n.piece == 0 && (n.time_s - 1.125).abs() < 1e-9).unwrap();
+        assert_eq!(free.hands[third], Some(0));
     }
 
     #[test]

@@ -25,7 +25,7 @@ pub mod assign;
 pub mod smooth;
 pub mod stroke;
 
-pub use assign::{assign_hands, AssignSettings, Assignment};
+pub use assign::{assign_hands, assign_hands_kept, AssignSettings, Assignment};
 pub use stroke::{plan_hands, PlannedHands, StrokeSettings};
 
 /// A note a stick plays, placed on the kit.
