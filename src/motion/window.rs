@@ -269,6 +269,46 @@ mod tests {
     /// A plan for the simulated body alone carries the same planned hands and feet as a
     /// plan for an avatar (the body plays the same strokes, the pedals the same feet).
     #[test]
+    fn a_note_the_body_has_struck_keeps_the_hand_the_plan_before_gave_it() {
+        let kit = Kit::builtin_default();
+        let map = NoteMap::builtin("gm").unwrap();
+        let library = crate::motion::pipeline::shipped_library().unwrap();
+        let mut w = WindowMotion::new(kit, map, HandModel::shipped(), library, 0.25);
+        w.plan_upper_body(false);
+        for (i, note) in [42u8, 38, 42, 45, 42, 38, 48, 43].iter().cycle().take(40).enumerate() {
+            let kind = DrumEventKind::NoteOn { note: *note, velocity: 90 };
+            w.push(DrumEvent { time_s: 0.5 + i as f64 * 0.11, tick: i as u64, kind });
+        }
+        let first = w.plan(3.0).unwrap();
+        // Another plan's sticking, every hand swapped: the next plan keeps it for the notes
+        // before its cutoff (the body's moment plus 75 ms) and plans the rest afresh.
+        let swapped: Vec<(f64, usize, usize)> = w.sticking.iter().map(|&(t, p, h)| (t, p, 1 - h)).collect();
+        w.sticking = swapped.clone();
+        let now = 3.05;
+        let cutoff = now - 0.25 + KEEP_HAND_S;
+        let second = w.plan(now).unwrap();
+        let mut kept = 0;
+        for h in 0..2 {
+            for n in second.hands.notes(h) {
+                let was = swapped.iter().find(|s| (s.0 - n.time_s).abs() < 1e-6 && s.1 == n.piece).unwrap();
+                if n.time_s < cutoff {
+                    assert_eq!(was.2, h, "a struck note at {:.3} s changed hands", n.time_s);
+                    kept += 1;
+                }
+            }
+        }
+        assert!(kept > 10, "{kept} notes kept");
+        // Unforced, the same window gives those notes back their first hands.
+        let natural = |p: &WindowPlan, t: f64| (0..2).find(|&h| p.hands.notes(h).any(|n| (n.time_s - t).abs() < 1e-6));
+        let t = swapped
+            .iter()
+            .map(|s| s.0)
+            .filter(|&t| t < cutoff && t > first.start_s + 0.5)
+            .fold(f64::NEG_INFINITY, f64::max);
+        assert_ne!(natural(&first, t), natural(&second, t));
+    }
+
+    #[test]
     fn a_body_only_plan_plays_what_the_full_plan_plays() {
         let kit = Kit::builtin_default();
         let map = NoteMap::builtin("gm").unwrap();

@@ -152,8 +152,10 @@ fn target_at(
     // plan alone (which left a jump of a fifth of the two plans' difference: 6 cm in one
     // period where a new note sent a hand from a tom to the snare).
     let plans = fading.iter().flatten().map(|(p, s)| (p, *s)).chain(std::iter::once((targets, since)));
+    // A plan whose fade is over by `t` hides the plans before it: start from the last such.
+    let hidden = plans.clone().enumerate().filter(|(_, (_, s))| t >= s.at + s.fade[h]).map(|(k, _)| k).last();
     let mut acc: Option<ArmTarget> = None;
-    for (plan, since) in plans {
+    for (plan, since) in plans.skip(hidden.unwrap_or(0)) {
         let new = plan.at(h, t, touched);
         acc = Some(match acc {
             Some(old) if t < since.at + since.fade[h] => {

@@ -141,8 +141,10 @@ fn assign_strokes(
     // Per step, the live states: (hand of note i, other hand's last note or FREE), their
     // cost and their parent state's index in the previous step.
     let mut steps: Vec<Vec<Entry>> = Vec::with_capacity(n);
+    // Each stroke's kept hand, asked once (the DP prices a stroke for every state).
+    let keep: Vec<Option<usize>> = notes.iter().map(kept).collect();
     let here = |i: usize, h: usize| {
-        let other = kept(&notes[i]).is_some_and(|k| k != h);
+        let other = keep[i].is_some_and(|k| k != h);
         s.per_metre * dist(predicted(h, notes[i].time_s), notes[i].point) + if other { s.infeasible } else { 0.0 }
     };
     steps.push((0..2).map(|h| ((h, FREE), here(0, h), 0)).collect());
