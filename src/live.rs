@@ -65,6 +65,8 @@ pub struct LiveOptions {
     /// The simulated body plays the notes and its contacts are the sound (`--sound
     /// physical`; `lookahead_ms` is then how long after its note each stroke lands).
     pub physical: bool,
+    /// Each kit piece on its own output channel after the mix (`--stems`).
+    pub stems: bool,
 }
 
 /// The lookahead of `--sound-to` when none is given, ms: room for a local network's jitter.
@@ -137,7 +139,14 @@ pub fn run(opts: &LiveOptions) -> anyhow::Result<()> {
     let lookahead = Duration::from_secs_f32(opts.lookahead_ms / 1000.0);
     let (ring_tx, ring_rx) = rtrb::RingBuffer::new(SOUND_RING);
     let audio = match &device {
-        Some(d) => Some(AudioOutput::start(d, &kit, &OutputSettings { lookahead, ..Default::default() }, ring_rx)?),
+        Some(d) => {
+            let settings = OutputSettings { lookahead, stems: opts.stems, ..Default::default() };
+            let audio = AudioOutput::start(d, &kit, &settings, ring_rx)?;
+            if opts.stems {
+                eprintln!("drumsim live: {}", crate::sound::device::stem_channels(&kit));
+            }
+            Some(audio)
+        }
         None => None,
     };
 
@@ -539,6 +548,7 @@ mod tests {
             avatar: None,
             sound_to: None,
             physical: false,
+            stems: false,
         }
     }
 

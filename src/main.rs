@@ -199,6 +199,12 @@ enum Command {
         /// is to sound, --lookahead-ms after its note (default 20 ms here).
         #[arg(long, value_name = "udp://HOST:PORT")]
         sound_to: Option<String>,
+        /// Each kit piece on its own output channel after the stereo mix (channel 3: the
+        /// kit's first piece; the names are printed): dry, unpanned, in time with the mix, for
+        /// recording each drum on its own track. The device must offer that many channels
+        /// (JACK does: up to 64).
+        #[arg(long, conflicts_with = "sound_to")]
+        stems: bool,
         #[arg(long)]
         kit: Option<PathBuf>,
         #[arg(long, default_value = "gm")]
@@ -245,6 +251,9 @@ enum Command {
         /// Messages without a time tag sound this long after they arrive (0-1000 ms).
         #[arg(long, default_value_t = 0.0)]
         latency_ms: f32,
+        /// Each kit piece on its own output channel after the stereo mix, as `live --stems`.
+        #[arg(long)]
+        stems: bool,
         /// Stop after this many seconds.
         #[arg(long)]
         duration_s: Option<f64>,
@@ -453,6 +462,8 @@ fn exit_code(err: &anyhow::Error) -> u8 {
             || e.is::<drumsim::view::ViewError>()
             || e.is::<drumsim::view::video::VideoInputError>()
             || e.downcast_ref::<drumsim::vmc::VmcError>().is_some_and(|e| !e.is_io())
+            || e.downcast_ref::<drumsim::sound::device::OutputError>()
+                .is_some_and(|e| matches!(e, drumsim::sound::device::OutputError::NoStemChannels { .. }))
     });
     if bad_input {
         2
@@ -552,10 +563,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             result
         }
-        Command::Sound { listen, audio, kit, latency_ms, duration_s } => {
+        Command::Sound { listen, audio, kit, latency_ms, stems, duration_s } => {
             let listen = drumsim::interaction::remote::udp_address("--listen", &listen)?;
-            let opts =
-                drumsim::sound_server::ServerOptions { listen, audio_device: audio, kit, latency_ms, duration_s };
+            let opts = drumsim::sound_server::ServerOptions {
+                listen,
+                audio_device: audio,
+                kit,
+                latency_ms,
+                stems,
+                duration_s,
+            };
             drumsim::sound_server::run(&opts)
         }
         Command::Live {
@@ -564,6 +581,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             lookahead_ms,
             sound,
             sound_to,
+            stems,
             kit,
             map,
             channel,
@@ -603,6 +621,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 midi_port: midi,
                 audio_device: audio,
                 sound_to,
+                stems,
                 lookahead_ms: sound_ms,
                 kit,
                 map,

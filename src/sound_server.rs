@@ -33,6 +33,8 @@ pub struct ServerOptions {
     pub kit: Option<PathBuf>,
     /// Untimed messages sound this long after they arrive.
     pub latency_ms: f32,
+    /// Each kit piece on its own output channel after the mix (`--stems`).
+    pub stems: bool,
     pub duration_s: Option<f64>,
 }
 
@@ -58,7 +60,11 @@ pub fn run(opts: &ServerOptions) -> anyhow::Result<()> {
         None => anyhow::anyhow!("no default audio output (is JACK or a sound card there?); choose one with --audio"),
     })?;
     let (ring_tx, ring_rx) = rtrb::RingBuffer::new(SOUND_RING);
-    let audio = AudioOutput::start(&device, &kit, &OutputSettings::default(), ring_rx)?;
+    let audio =
+        AudioOutput::start(&device, &kit, &OutputSettings { stems: opts.stems, ..Default::default() }, ring_rx)?;
+    if opts.stems {
+        eprintln!("drumsim sound: {}", device::stem_channels(&kit));
+    }
     let feed = EventFeed::new(kit.clone(), audio.sample_rate_hz as f32, PerformanceClock::Estimated(None), ring_tx)
         .with_stats(audio.stats.clone());
     let net = NetFeed::new(feed, Duration::from_secs_f32(opts.latency_ms / 1000.0));

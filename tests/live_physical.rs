@@ -12,7 +12,7 @@ mod jack_rig;
 
 use drumsim::interaction::{decode_timed, ContactMessage, Message};
 use drumsim::midi::{read_file, DrumEventKind, NoteMap, ReadOptions};
-use drumsim::perform::matching::{match_contacts, onsets};
+use drumsim::perform::matching::{match_contacts, onsets, DOUBLE_TRIGGER_S, HIT_WINDOW_S};
 use jack_rig::*;
 use std::net::UdpSocket;
 use std::path::Path;
@@ -30,10 +30,9 @@ fn unix(t: rosc::OscTime) -> f64 {
     t.seconds as f64 - 2_208_988_800.0 + t.fractional as f64 / 4_294_967_296.0
 }
 
-#[test]
-fn a_groove_midi_take_played_live_is_struck_by_the_body_each_note_lookahead_after_it_was_played() {
-    let _turn = one_at_a_time();
-    let jack = JackServer::start();
+/// The take's first `PLAYED_S` as (frame, MIDI bytes) from `FIRST_NOTE`, and the frame
+/// after its last event plus a second.
+fn take() -> (drumsim::midi::Performance, NoteMap, Vec<(u64, [u8; 3])>, u64) {
     let song = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/gmd").join(TAKE);
     let perf = read_file(&song, &ReadOptions::default()).unwrap();
     let map = NoteMap::load("roland-td").unwrap();
@@ -48,28 +47,29 @@ fn a_groove_midi_take_played_live_is_struck_by_the_body_each_note_lookahead_afte
         schedule.push((FIRST_NOTE + (e.time_s * RATE as f64).round() as u64, bytes));
     }
     let total = schedule.last().unwrap().0 + RATE;
+    (perf, map, schedule, total)
+}
+
+/// `drumsim live --sound physical` playing the take, its sound going where `out` says.
+fn take_args(total: u64, out: &[&str]) -> Vec<String> {
+    let (seconds, lookahead) = ((total / RATE + 4).to_string(), LOOKAHEAD_MS.to_string());
+    let args = ["--midi", "drumsim-test:midi_out", "--map", "roland-td", "--sound", "physical"];
+    let timing = ["--lookahead-ms", &lookahead, "--duration-s", &seconds];
+    args.iter().chain(out).chain(&timing).map(|a| a.to_string()).collect()
+}
+
+#[test]
+fn a_groove_midi_take_played_live_is_struck_by_the_body_each_note_lookahead_after_it_was_played() {
+    let _turn = one_at_a_time();
+    let jack = JackServer::start();
+    let (perf, map, schedule, total) = take();
     let (client, armed, progress) = player("drumsim-test", schedule, total as usize);
 
     let inbound = UdpSocket::bind("127.0.0.1:0").unwrap();
     inbound.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
     let to = format!("udp://{}", inbound.local_addr().unwrap());
-    let seconds = (total / RATE + 4).to_string();
-    let lookahead = LOOKAHEAD_MS.to_string();
-    let args = [
-        "--midi",
-        "drumsim-test:midi_out",
-        "--map",
-        "roland-td",
-        "--sound",
-        "physical",
-        "--sound-to",
-        &to,
-        "--lookahead-ms",
-        &lookahead,
-        "--duration-s",
-        &seconds,
-    ];
-    let mut live = Drumsim::live(&jack, &args);
+    let args = take_args(total, &["--sound-to", &to]);
+    let mut live = Drumsim::live(&jack, &args.iter().map(String::as_str).collect::<Vec<_>>());
     live.wait_for("drumsim live: MIDI", Duration::from_secs(60));
     let receiving = thread::spawn(move || {
         let mut got = Vec::new();
@@ -175,6 +175,120 @@ fn a_groove_midi_take_played_live_is_struck_by_the_body_each_note_lookahead_afte
     // live physical drummer").
     assert!(recall >= 0.99 && precision >= 0.99, "recall {recall:.3}, precision {precision:.3}");
     assert!(mean.abs() <= 0.002 && sd <= 0.003, "contact - note: mean {mean:+.4} s, sd {sd:.4} s");
+}
+
+/// The same take with the sound in drumsim's own process (`--audio jack --stems`): the test
+/// client records drumsim's audio ports, the stereo mix and one channel per kit piece, and
+/// finds each strike in the audio alone (`eval::onsets` on each piece's channel). Each
+/// note's piece must sound within 10 ms of its note time plus the lookahead, as in the
+/// contacts test above, but measured in the recording against the sent MIDI.
+#[test]
+fn the_take_played_live_sounds_in_the_recorded_audio_of_each_piece_lookahead_after_each_note() {
+    use drumsim::eval::onsets::stem_onsets;
+    use drumsim::kit::Kit;
+    use jack::PortFlags;
+    let _turn = one_at_a_time();
+    let jack = JackServer::start();
+    let (perf, map, schedule, total) = take();
+    let kit = Kit::builtin_default();
+    let pieces = kit.pieces.len();
+    let record = (total + RATE) as usize;
+    let (client, armed, progress) = player_with_tracks("drumsim-test", schedule, record, pieces);
+    let args = take_args(total, &["--audio", "jack", "--stems"]);
+    let mut live = Drumsim::live(&jack, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    live.wait_for("drumsim live: MIDI", Duration::from_secs(60));
+    let pattern = format!("cpal_client_{}_out:", live.child.id());
+    let mut outs = client.as_client().ports(Some(&pattern), Some("32 bit float mono audio"), PortFlags::IS_OUTPUT);
+    // out_1, out_2, ... out_13: in channel order.
+    outs.sort_by_key(|p| p.rsplit('_').next().and_then(|n| n.parse::<u32>().ok()));
+    assert_eq!(outs.len(), 2 + pieces, "the mix and a stem per piece ({pattern}*): {outs:?}");
+    let inputs: Vec<String> = ["in_l".to_string(), "in_r".to_string()]
+        .into_iter()
+        .chain((0..pieces).map(|i| format!("in_{}", i + 3)))
+        .map(|p| format!("drumsim-test:{p}"))
+        .collect();
+    for (out, input) in outs.iter().zip(&inputs) {
+        client.as_client().connect_ports_by_name(out, input).unwrap();
+    }
+    armed.store(true, Ordering::Release);
+    let start = Instant::now();
+    while progress.load(Ordering::Acquire) < record as u64 {
+        assert!(start.elapsed() < Duration::from_secs(120), "JACK is not running the test client");
+        thread::sleep(Duration::from_millis(100));
+    }
+    let (_, _, player) = client.deactivate().unwrap();
+    let status = live.wait_exit(Duration::from_secs(30));
+    assert!(status.success(), "drumsim live failed ({status}):\n{}", live.stderr());
+
+    // Each piece's strikes in its channel, in frames of the test client's clock (the MIDI
+    // schedule's), less the lookahead.
+    let late = LOOKAHEAD_MS / 1e3;
+    let found: Vec<Vec<f64>> = player
+        .tracks
+        .iter()
+        .map(|t| stem_onsets(t, RATE as f64).into_iter().map(|s| s - late - FIRST_NOTE as f64 / RATE as f64).collect())
+        .collect();
+    // The notes, one sound per piece where notes on it are within the planner's merge window
+    // (an e-kit's double triggers; a hi-hat chick under a stick note).
+    let mut notes: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < PLAYED_S).collect();
+    notes.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    let mut sounds: Vec<(f64, String, Vec<usize>)> = Vec::new();
+    for (i, n) in notes.iter().enumerate() {
+        match sounds.iter_mut().rev().take(8).find(|(t, p, _)| *p == n.piece && n.time_s - *t <= DOUBLE_TRIGGER_S) {
+            Some(group) => group.2.push(i),
+            None => sounds.push((n.time_s, n.piece.clone(), vec![i])),
+        }
+    }
+    // A piece's sound is in its own channel or its hoop's (a cross-stick, a rim shot).
+    let mut heard: Vec<Vec<usize>> = vec![Vec::new(); sounds.len()];
+    let mut spurious = 0;
+    let mut offsets = Vec::new();
+    let mut strikes = 0;
+    for (k, piece) in kit.pieces.iter().enumerate() {
+        let of = piece.id.strip_suffix("_rim").unwrap_or(&piece.id);
+        for &t in found[k].iter().filter(|t| (-0.1..PLAYED_S + 0.05).contains(*t)) {
+            strikes += 1;
+            let best = (0..sounds.len())
+                .filter(|&g| sounds[g].1 == of && (sounds[g].0 - t).abs() <= HIT_WINDOW_S && !heard[g].contains(&k))
+                .min_by(|&a, &b| (sounds[a].0 - t).abs().total_cmp(&(sounds[b].0 - t).abs()));
+            match best {
+                Some(g) => {
+                    if heard[g].is_empty() {
+                        offsets.push(t - sounds[g].0);
+                    }
+                    heard[g].push(k);
+                }
+                None => spurious += 1,
+            }
+        }
+    }
+    let sounded: usize = sounds.iter().zip(&heard).filter(|(_, h)| !h.is_empty()).map(|(s, _)| s.2.len()).sum();
+    let recall = sounded as f64 / notes.len() as f64;
+    let precision = 1.0 - spurious as f64 / strikes.max(1) as f64;
+    let n = offsets.len().max(1) as f64;
+    let mean = offsets.iter().sum::<f64>() / n;
+    let sd = (offsets.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / n).sqrt();
+    let missed: Vec<String> =
+        sounds.iter().zip(&heard).filter(|(_, h)| h.is_empty()).map(|(s, _)| format!("{} {:.3}", s.1, s.0)).collect();
+    let stderr = live.stderr();
+    let body = stderr.lines().find(|l| l.contains("body:")).unwrap_or_default().to_string();
+    println!(
+        "{TAKE}, first {PLAYED_S} s, in the recorded audio: {} notes ({} sounds), {strikes} strikes found; recall \
+         {:.2} %, precision {:.2} %; strike - note - lookahead: mean {:+.2} ms, sd {:.2} ms\nmissed: {missed:?}\n{body}",
+        notes.len(),
+        sounds.len(),
+        100.0 * recall,
+        100.0 * precision,
+        mean * 1e3,
+        sd * 1e3,
+    );
+    if let Ok(dir) = std::env::var("DRUMSIM_LIVE_STEMS_DIR") {
+        for (piece, t) in kit.pieces.iter().zip(&player.tracks) {
+            save_wav(&Path::new(&dir).join(format!("{}.wav", piece.id)), t);
+        }
+    }
+    assert!(recall >= 0.97 && precision >= 0.98, "recall {recall:.3}, precision {precision:.3}");
+    assert!(mean.abs() <= 0.002 && sd <= 0.003, "strike - note - lookahead: mean {mean:+.4} s, sd {sd:.4} s");
 }
 
 /// The same drummer with its sound in this process (`--audio jack`, no `--sound-to`): the

@@ -6,6 +6,7 @@ pub mod dtw;
 pub mod motion;
 pub mod motion_quality;
 pub mod note_sound;
+pub mod onsets;
 pub mod report;
 pub mod savgol;
 pub mod strike;

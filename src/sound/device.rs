@@ -80,13 +80,20 @@ pub fn find_output(wanted: Option<&str>) -> Result<OutputDevice, Vec<String>> {
 pub enum OutputError {
     #[error("audio device {device}: no 32-bit float output configuration")]
     NoFloatConfig { device: String },
+    #[error("audio device {device}: --stems needs {channels} output channels (the mix and one per kit piece); it offers at most {offered}")]
+    NoStemChannels { device: String, channels: u16, offered: u16 },
     #[error("audio device {device}: {source}")]
     Device { device: String, source: cpal::Error },
 }
 
-/// The device's f32 configuration: its default channel count, `sample_rate_hz` if it can,
-/// else its default rate; `buffer_frames` if the device lets us choose.
-pub fn choose_config(out: &OutputDevice, settings: &OutputSettings) -> Result<StreamConfig, OutputError> {
+/// The device's f32 configuration: `channels` if given (else its default channel count),
+/// `sample_rate_hz` if it can, else its default rate; `buffer_frames` if the device lets us
+/// choose.
+pub fn choose_config(
+    out: &OutputDevice,
+    settings: &OutputSettings,
+    channels: Option<u16>,
+) -> Result<StreamConfig, OutputError> {
     let err = |source| OutputError::Device { device: out.label.clone(), source };
     let default = out.device.default_output_config().map_err(err)?;
     let ranges: Vec<_> = out
@@ -95,6 +102,13 @@ pub fn choose_config(out: &OutputDevice, settings: &OutputSettings) -> Result<St
         .map_err(err)?
         .filter(|r| r.sample_format() == SampleFormat::F32)
         .collect();
+    if let Some(c) = channels {
+        if !ranges.iter().any(|r| r.channels() == c) {
+            let offered = ranges.iter().map(|r| r.channels()).max().unwrap_or(0);
+            return Err(OutputError::NoStemChannels { device: out.label.clone(), channels: c, offered });
+        }
+    }
+    let ranges: Vec<_> = ranges.into_iter().filter(|r| channels.is_none_or(|c| r.channels() == c)).collect();
     let by_channels = |c| ranges.iter().filter(move |r| r.channels() == c);
     let chosen = [settings.sample_rate_hz, default.sample_rate()]
         .into_iter()
@@ -108,6 +122,12 @@ pub fn choose_config(out: &OutputDevice, settings: &OutputSettings) -> Result<St
         _ => BufferSize::Default,
     };
     Ok(StreamConfig { channels: chosen.channels(), sample_rate: chosen.sample_rate(), buffer_size })
+}
+
+/// Which output channel carries which piece with `--stems`, for the user.
+pub fn stem_channels(kit: &Kit) -> String {
+    let pieces: Vec<String> = kit.pieces.iter().enumerate().map(|(k, p)| format!("{} {}", k + 3, p.id)).collect();
+    format!("stems: channels 1-2 the mix, then {}", pieces.join(", "))
 }
 
 /// A running output stream.
@@ -132,14 +152,18 @@ impl AudioOutput {
         settings: &OutputSettings,
         events: Consumer<TimedEvent>,
     ) -> Result<AudioOutput, OutputError> {
-        let config = choose_config(out, settings)?;
+        let stem_channels = settings.stems.then(|| 2 + kit.pieces.len() as u16);
+        let config = choose_config(out, settings, stem_channels)?;
         let fs = config.sample_rate;
         let engine_settings = EngineSettings {
             sample_rate_hz: fs as f32,
             max_block: settings.max_block,
             event_capacity: settings.event_capacity,
         };
-        let engine = Engine::new(kit, engine_settings);
+        let engine = match settings.stems {
+            true => Engine::new(kit, engine_settings).with_stems(),
+            false => Engine::new(kit, engine_settings),
+        };
         let engine_latency_samples = engine.latency_samples();
         let stats = Arc::new(OutputStats::default());
         let mut renderer = Renderer::new(engine, events, config.channels.into(), fs.into(), settings, stats.clone());

@@ -1,6 +1,8 @@
 //! The sound engine: one voice per kit piece, events applied at their exact sample, a stereo
-//! mix placed by each piece's position, and the master limiter. `process` never allocates,
-//! locks or blocks: everything is sized in `new`.
+//! mix placed by each piece's position, and the master limiter; optionally each piece's own
+//! dry signal (a stem: unpanned, before the limiter, delayed by the limiter's look-ahead so
+//! that it lines up with the mix). `process` never allocates, locks or blocks: everything is
+//! sized in `new` and [`Engine::with_stems`].
 
 use super::bank::{Lane, LANES};
 use super::limiter::Limiter;
@@ -37,6 +39,13 @@ pub struct Engine {
     acc: Vec<Lane>,
     limiter: Limiter,
     dropped: u64,
+    /// Per piece: the last block's stem, and its delay line (`with_stems`; empty without).
+    stems: Vec<Box<[f32]>>,
+    stem_delays: Vec<Box<[f32]>>,
+    /// Where the next sample enters the stems' delay lines.
+    stem_slot: usize,
+    /// Frames of the last block.
+    last_block: usize,
 }
 
 impl Engine {
@@ -63,7 +72,30 @@ impl Engine {
             acc: vec![[0.0; LANES]; max_block],
             limiter: Limiter::new(settings.sample_rate_hz, CEILING, 0.0015, 0.08),
             dropped: 0,
+            stems: Vec::new(),
+            stem_delays: Vec::new(),
+            stem_slot: 0,
+            last_block: 0,
         }
+    }
+
+    /// Also keep each piece's stem of every block (read with [`Engine::stem`]).
+    pub fn with_stems(mut self) -> Engine {
+        let n = self.voices.len();
+        self.stems = (0..n).map(|_| vec![0.0; self.max_block].into()).collect();
+        self.stem_delays = (0..n).map(|_| vec![0.0; self.limiter.latency()].into()).collect();
+        self
+    }
+
+    /// Pieces with a stem: the kit's pieces after `with_stems`, else none.
+    pub fn stem_count(&self) -> usize {
+        self.stems.len()
+    }
+
+    /// Piece `piece`'s dry signal over the last block `process` rendered (at most `max_block`
+    /// frames: the last chunk of a longer call), aligned with the mix.
+    pub fn stem(&self, piece: usize) -> &[f32] {
+        &self.stems[piece][..self.last_block]
     }
 
     /// The sample index the next `process` call starts at.
@@ -104,6 +136,11 @@ impl Engine {
         self.queue.is_empty() && self.voices.iter().all(|v| v.is_silent())
     }
 
+    /// A piece's (left, right) gains in the mix.
+    pub fn pan(&self, piece: usize) -> (f32, f32) {
+        self.pans[piece]
+    }
+
     pub fn voice(&self, piece: usize) -> &Voice {
         &self.voices[piece]
     }
@@ -134,11 +171,26 @@ impl Engine {
                 Some(ev) => ((ev.at_sample - start) as usize).min(n),
                 None => n,
             };
-            self.mix(&mut left[pos..next], &mut right[pos..next]);
+            self.mix(&mut left[pos..next], &mut right[pos..next], pos);
             pos = next;
         }
         self.limiter.process(left, right);
+        self.delay_stems(n);
+        self.last_block = n;
         self.time += n as u64;
+    }
+
+    /// Delay the block's stems by the limiter's look-ahead, as the mix is.
+    fn delay_stems(&mut self, n: usize) {
+        let Some(len) = self.stem_delays.first().map(|d| d.len()) else { return };
+        for (stem, delay) in self.stems.iter_mut().zip(self.stem_delays.iter_mut()) {
+            let mut slot = self.stem_slot;
+            for s in stem[..n].iter_mut() {
+                std::mem::swap(s, &mut delay[slot]);
+                slot = if slot + 1 == len { 0 } else { slot + 1 };
+            }
+        }
+        self.stem_slot = (self.stem_slot + n) % len;
     }
 
     fn apply(&mut self, ev: &SoundEvent) {
@@ -161,14 +213,22 @@ impl Engine {
         }
     }
 
-    fn mix(&mut self, left: &mut [f32], right: &mut [f32]) {
+    /// Mix the voices into `left` and `right`, which start `pos` frames into the block.
+    fn mix(&mut self, left: &mut [f32], right: &mut [f32], pos: usize) {
         let n = left.len();
-        for (voice, &(gl, gr)) in self.voices.iter_mut().zip(self.pans.iter()) {
+        for (k, (voice, &(gl, gr))) in self.voices.iter_mut().zip(self.pans.iter()).enumerate() {
+            let stem = self.stems.get_mut(k).map(|s| &mut s[pos..pos + n]);
             if voice.is_silent() {
+                if let Some(stem) = stem {
+                    stem.fill(0.0);
+                }
                 continue;
             }
             let mono = &mut self.mono[..n];
             voice.render(mono, &mut self.acc);
+            if let Some(stem) = stem {
+                stem.copy_from_slice(mono);
+            }
             for ((l, r), m) in left.iter_mut().zip(right.iter_mut()).zip(mono.iter()) {
                 *l += gl * m;
                 *r += gr * m;

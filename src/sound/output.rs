@@ -59,6 +59,9 @@ pub struct OutputSettings {
     /// Frames rendered at once; longer host buffers are rendered in chunks.
     pub max_block: usize,
     pub event_capacity: usize,
+    /// Also each kit piece's own dry signal, one channel each after the stereo mix
+    /// (`--stems`): channel 3 is the kit's first piece.
+    pub stems: bool,
 }
 
 impl Default for OutputSettings {
@@ -69,6 +72,7 @@ impl Default for OutputSettings {
             lookahead: Duration::ZERO,
             max_block: 1024,
             event_capacity: 1024,
+            stems: false,
         }
     }
 }
@@ -137,6 +141,11 @@ impl Renderer {
             let (left, right) = (&mut self.left[..frames], &mut self.right[..frames]);
             self.engine.process(left, right);
             interleave(left, right, chunk, self.channels);
+            for k in 0..self.engine.stem_count().min(self.channels.saturating_sub(2)) {
+                for (frame, s) in chunk.chunks_exact_mut(self.channels).zip(self.engine.stem(k)) {
+                    frame[2 + k] = *s;
+                }
+            }
         }
     }
 }
@@ -295,6 +304,43 @@ mod tests {
         let mut quad = [9.0; 9]; // two frames of four, and a stray sample
         interleave(&l, &r, &mut quad, 4);
         assert_eq!(quad, [1.0, 3.0, 0.0, 0.0, 2.0, 4.0, 0.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn stems_carry_each_piece_alone_and_add_up_to_the_mix() {
+        let kit = Kit::builtin_default();
+        let (tx, rx) = rtrb::RingBuffer::new(8);
+        let settings = OutputSettings { max_block: 64, stems: true, ..Default::default() };
+        let engine = Engine::new(&kit, EngineSettings { sample_rate_hz: FS as f32, max_block: 64, event_capacity: 8 })
+            .with_stems();
+        let channels = 2 + kit.pieces.len();
+        let mut r = Renderer::new(engine, rx, channels, FS, &settings, Arc::default());
+        let mut tx = tx;
+        let block = Instant::now();
+        let kick = kit.index_of("kick").unwrap();
+        let mut strike = snare(&kit);
+        tx.push(TimedEvent { arrival: block, kind: strike }).unwrap();
+        if let SoundEventKind::Strike(s) = &mut strike {
+            s.piece = kick;
+        }
+        tx.push(TimedEvent { arrival: block + Duration::from_millis(3), kind: strike }).unwrap();
+        let mut out = vec![0.0; channels * 2400];
+        r.render(&mut out, block);
+        let snare_ch = 2 + kit.index_of("snare").unwrap();
+        let first = |ch: usize| out.chunks_exact(channels).position(|f| f[ch].abs() > 1e-6);
+        let (l, s, k) = (first(0).unwrap(), first(snare_ch).unwrap(), first(2 + kick).unwrap());
+        assert_eq!(s, l, "the snare's stem starts with the mix (both after the limiter's delay)");
+        // 3 ms later (144 samples), its beater's contact force rising from zero.
+        assert!((144..152).contains(&(k - s)), "the kick's stem starts 3 ms later: {s} {k}");
+        let silent = (0..kit.pieces.len()).filter(|&p| p != kick && 2 + p != snare_ch);
+        assert!(silent.into_iter().all(|p| out.chunks_exact(channels).all(|f| f[2 + p] == 0.0)));
+        // Unpanned, unlimited: the mix is the stems panned (the limiter stays at unity here).
+        let (gl, gr) = r.engine.pan(kick);
+        let (sl, sr) = r.engine.pan(snare_ch - 2);
+        for f in out.chunks_exact(channels) {
+            assert!((f[0] - (sl * f[snare_ch] + gl * f[2 + kick])).abs() < 1e-4);
+            assert!((f[1] - (sr * f[snare_ch] + gr * f[2 + kick])).abs() < 1e-4);
+        }
     }
 
     #[test]

@@ -192,10 +192,13 @@ impl Drop for Drumsim {
     }
 }
 
-/// Plays `schedule` (frame, message) once armed, and records max(|left|, |right|) per frame.
+/// Plays `schedule` (frame, message) once armed, and records max(|left|, |right|) per frame,
+/// and each further input (`player_with_tracks`) as it is.
 pub struct Player {
     pub midi_out: Port<MidiOut>,
     inputs: [Port<AudioIn>; 2],
+    track_inputs: Vec<Port<AudioIn>>,
+    pub tracks: Vec<Vec<f32>>,
     armed: Arc<AtomicBool>,
     schedule: Vec<(u64, [u8; 3])>,
     next: usize,
@@ -227,6 +230,11 @@ impl ProcessHandler for Player {
                 self.recorded.push(l.abs().max(r.abs()));
             }
         }
+        for (port, track) in self.track_inputs.iter().zip(self.tracks.iter_mut()) {
+            let room = track.capacity() - track.len();
+            let x = port.as_slice(ps);
+            track.extend_from_slice(&x[..x.len().min(room)]);
+        }
         self.frame += n;
         self.progress.store(self.frame, Ordering::Release);
         Control::Continue
@@ -239,7 +247,19 @@ pub fn player(
     schedule: Vec<(u64, [u8; 3])>,
     record_frames: usize,
 ) -> (jack::AsyncClient<(), Player>, Arc<AtomicBool>, Arc<AtomicU64>) {
+    player_with_tracks(name, schedule, record_frames, 0)
+}
+
+/// As `player`, with `tracks` more audio inputs (`in_3`, `in_4`, ...), each recorded alone.
+pub fn player_with_tracks(
+    name: &str,
+    schedule: Vec<(u64, [u8; 3])>,
+    record_frames: usize,
+    tracks: usize,
+) -> (jack::AsyncClient<(), Player>, Arc<AtomicBool>, Arc<AtomicU64>) {
     let (client, _) = Client::new(name, ClientOptions::NO_START_SERVER).unwrap();
+    let track_inputs =
+        (0..tracks).map(|i| client.register_port(&format!("in_{}", i + 3), AudioIn::default()).unwrap()).collect();
     let midi_out = client.register_port("midi_out", MidiOut::default()).unwrap();
     let inputs = [
         client.register_port("in_l", AudioIn::default()).unwrap(),
@@ -249,6 +269,8 @@ pub fn player(
     let p = Player {
         midi_out,
         inputs,
+        track_inputs,
+        tracks: (0..tracks).map(|_| Vec::with_capacity(record_frames)).collect(),
         armed: armed.clone(),
         schedule,
         next: 0,
