@@ -455,14 +455,15 @@ fn status(port: &str, channel: u8, map: &str, audio: &AudioOutput, lookahead_ms:
         None => "buffer size unknown".into(),
     };
     let output_ms = audio.stats.output_latency_us.load(Relaxed) as f64 / 1000.0;
+    // The engine's delay is taken off each event's sample as far as the lookahead allows.
+    let engine_ms = (ms(audio.engine_latency_samples as f64) - f64::from(lookahead_ms)).max(0.0);
     format!(
         "drumsim live: MIDI {port:?} ({}, channel {channel}, map {map}) -> {}, {} Hz, {} ch, {buffer}; \
-         latency: output {output_ms:.1} ms + engine {:.1} ms + lookahead {lookahead_ms} ms",
+         latency: output {output_ms:.1} ms + engine {engine_ms:.1} ms + lookahead {lookahead_ms} ms",
         midi_live::BACKEND,
         audio.label,
         audio.sample_rate_hz,
         audio.channels,
-        ms(audio.engine_latency_samples as f64),
     )
 }
 
