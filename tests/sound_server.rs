@@ -73,7 +73,7 @@ enum Record<'a> {
 
 /// Play `events` into `drumsim live ARGS` and record the audio `record` names; the recording.
 fn play(jack: &JackServer, events: Vec<(u64, [u8; 3])>, args: &[&str], record: Record) -> Vec<f32> {
-    play_stalled(jack, events, args, record, None)
+    play_stalled(jack, events, args, record, None).0
 }
 
 /// As [`play`], jackd stopped (SIGSTOP) for `stall.1` once the test client has played to
@@ -84,7 +84,7 @@ fn play_stalled(
     args: &[&str],
     record: Record,
     mut stall: Option<(u64, Duration)>,
-) -> Vec<f32> {
+) -> (Vec<f32>, String) {
     let total = events.last().unwrap().0 + RATE;
     let (client, armed, progress) = player("drumsim-test", events, total as usize);
     let seconds = (total / RATE + 3).to_string();
@@ -122,7 +122,7 @@ fn play_stalled(
     let (_, _, player) = client.deactivate().unwrap();
     let status = live.wait_exit(Duration::from_secs(20));
     assert!(status.success(), "drumsim live failed ({status}):\n{}", live.stderr());
-    player.recorded
+    (player.recorded, live.stderr())
 }
 
 /// Each group's sound onset after its first note, ms (None: silent within 60 ms).
@@ -195,15 +195,16 @@ fn the_notes_after_jackd_stalls_still_sound_their_lookahead_after_they_were_play
     let lookahead = LOOKAHEAD_MS.to_string();
     let stall = (starts[6] + SPACING / 2, Duration::from_millis(40));
     let args = ["--audio", "jack", "--lookahead-ms", &lookahead];
-    let x = play_stalled(&jack, events, &args, Record::Live, Some(stall));
+    let (x, stderr) = play_stalled(&jack, events, &args, Record::Live, Some(stall));
     let after = latencies(&x, &starts);
     println!("after each note (ms): {after:.1?}");
+    println!("{stderr}");
     let period_ms = PERIOD as f64 * 1000.0 / RATE as f64;
     for (i, l) in after.iter().enumerate() {
         let Some(l) = l else { panic!("note group {i} made no sound: {after:.1?}") };
         assert!(
             (l - LOOKAHEAD_MS).abs() <= period_ms,
-            "note group {i} sounds {l:.1} ms after it was played: {after:.1?}"
+            "note group {i} sounds {l:.1} ms after it was played: {after:.1?}\n{stderr}"
         );
     }
 }
