@@ -469,3 +469,16 @@ fn a_note_flood_is_counted_and_the_drummer_plays_on() {
         );
     }
 }
+
+/// The stems are this process's own output: asking for them while the sound goes to a
+/// sound server is refused before anything starts, naming both options.
+#[test]
+fn stems_with_the_sound_sent_elsewhere_are_refused_naming_both_options() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_drumsim"))
+        .args(["live", "--stems", "--sound-to", "udp://127.0.0.1:9", "--duration-s", "1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--stems") && err.contains("--sound-to"), "{err}");
+}
