@@ -357,3 +357,23 @@ fn oscdump_reads_the_contact_messages_of_a_live_session() {
         assert!(numbers[1] > 0.5 && numbers[2] > 0.0 && (0.0..=3.0).contains(&numbers[7]), "{fields:?}");
     }
 }
+
+/// `drumsim sound --stems`: the server's JACK client has the mix and one port per kit piece,
+/// and says which piece each carries.
+#[test]
+fn a_sound_server_with_stems_opens_a_port_per_piece() {
+    let _turn = one_at_a_time();
+    let jack = JackServer::start();
+    let listen = format!("udp://127.0.0.1:{}", free_udp_port());
+    let args = ["--listen", &listen, "--audio", "jack", "--stems", "--duration-s", "3"];
+    let mut server = Drumsim::command(&jack, "sound", &args, Stdio::null());
+    server.wait_for("drumsim sound: listening on", Duration::from_secs(20));
+    let (client, _) = jack::Client::new("drumsim-ports", jack::ClientOptions::NO_START_SERVER).unwrap();
+    let pattern = format!("cpal_client_{}_out:", server.child.id());
+    let outs = client.ports(Some(&pattern), Some("32 bit float mono audio"), PortFlags::IS_OUTPUT);
+    let pieces = drumsim::kit::Kit::builtin_default().pieces.len();
+    assert_eq!(outs.len(), 2 + pieces, "{outs:?}");
+    let status = server.wait_exit(Duration::from_secs(20));
+    assert!(status.success(), "{}", server.stderr());
+    assert!(server.stderr().contains("stems: channels 1-2 the mix, then 3 kick, 4 snare"), "{}", server.stderr());
+}
