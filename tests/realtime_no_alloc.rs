@@ -43,16 +43,28 @@ static ALLOCATOR: Counting = Counting;
 
 #[test]
 fn the_audio_callback_never_allocates() {
+    play_a_burst(false);
+}
+
+/// With a stem per piece on channels 3.. (`--stems`) too.
+#[test]
+fn the_audio_callback_with_stems_never_allocates() {
+    play_a_burst(true);
+}
+
+fn play_a_burst(stems: bool) {
     let kit = Kit::builtin_default();
-    let settings = OutputSettings::default();
+    let settings = OutputSettings { stems, ..OutputSettings::default() };
     let engine = Engine::new(
         &kit,
         EngineSettings { sample_rate_hz: 48_000.0, max_block: settings.max_block, event_capacity: 1024 },
     );
+    let engine = if stems { engine.with_stems() } else { engine };
+    let channels = if stems { 2 + kit.pieces.len() } else { 2 };
     let (mut producer, consumer) = rtrb::RingBuffer::<TimedEvent>::new(1024);
     let stats = Arc::new(OutputStats::default());
-    let mut renderer = Renderer::new(engine, consumer, 2, 48_000.0, &settings, stats.clone());
-    let mut out = vec![0.0f32; 2 * 256];
+    let mut renderer = Renderer::new(engine, consumer, channels, 48_000.0, &settings, stats.clone());
+    let mut out = vec![0.0f32; channels * 256];
     let start = Instant::now();
     let mut strikes = 0;
     for block in 0..800 {
@@ -85,6 +97,10 @@ fn the_audio_callback_never_allocates() {
     }
     assert!(strikes > 400, "{strikes} strikes");
     assert!(out.iter().all(|v| v.is_finite()));
+    if stems {
+        let heard = |ch: usize| out.chunks_exact(channels).any(|f| f[ch] != 0.0);
+        assert!((2..channels).filter(|&ch| heard(ch)).count() > 1, "the stems carry sound");
+    }
     assert_eq!(stats.dropped_events.load(std::sync::atomic::Ordering::Relaxed), 0);
     assert_eq!(ALLOCATIONS.with(|a| a.get()), 0, "the audio callback allocated");
 }
