@@ -54,7 +54,7 @@ pub const FLUX_LEAD_S: f64 = 0.0047;
 
 /// The onset times (seconds from the stem's first sample) of the strikes in `stem`.
 pub fn stem_onsets(stem: &[f32], sample_rate_hz: f64) -> Vec<f64> {
-    if stem.len() < 2 {
+    if stem.len() < 2 || stem.iter().all(|v| *v == 0.0) {
         return Vec::new();
     }
     let slope: Vec<f32> = stem.windows(2).map(|w| w[1] - w[0]).collect();

@@ -103,10 +103,7 @@ pub fn choose_config(
         .filter(|r| r.sample_format() == SampleFormat::F32)
         .collect();
     if let Some(c) = channels {
-        if !ranges.iter().any(|r| r.channels() == c) {
-            let offered = ranges.iter().map(|r| r.channels()).max().unwrap_or(0);
-            return Err(OutputError::NoStemChannels { device: out.label.clone(), channels: c, offered });
-        }
+        offers_channels(&out.label, ranges.iter().map(|r| r.channels()), c)?;
     }
     let ranges: Vec<_> = ranges.into_iter().filter(|r| channels.is_none_or(|c| r.channels() == c)).collect();
     let by_channels = |c| ranges.iter().filter(move |r| r.channels() == c);
@@ -122,6 +119,15 @@ pub fn choose_config(
         _ => BufferSize::Default,
     };
     Ok(StreamConfig { channels: chosen.channels(), sample_rate: chosen.sample_rate(), buffer_size })
+}
+
+/// `Ok` if one of the device's configurations (`offered`, channel counts) has `channels`.
+fn offers_channels(device: &str, offered: impl Iterator<Item = u16> + Clone, channels: u16) -> Result<(), OutputError> {
+    if offered.clone().any(|c| c == channels) {
+        return Ok(());
+    }
+    let offered = offered.max().unwrap_or(0);
+    Err(OutputError::NoStemChannels { device: device.to_string(), channels, offered })
 }
 
 /// Which output channel carries which piece with `--stems`, for the user.
@@ -152,8 +158,8 @@ impl AudioOutput {
         settings: &OutputSettings,
         events: Consumer<TimedEvent>,
     ) -> Result<AudioOutput, OutputError> {
-        let stem_channels = settings.stems.then(|| 2 + kit.pieces.len() as u16);
-        let config = choose_config(out, settings, stem_channels)?;
+        let channels = settings.stems.then(|| 2 + kit.pieces.len() as u16);
+        let config = choose_config(out, settings, channels)?;
         let fs = config.sample_rate;
         let engine_settings = EngineSettings {
             sample_rate_hz: fs as f32,
@@ -214,5 +220,20 @@ impl AudioOutput {
     /// A stream error the host reported since the last call (xruns are only counted).
     pub fn error(&self) -> Option<cpal::Error> {
         self.errors.try_recv().ok()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_device_without_room_for_the_stems_is_refused_naming_what_it_offers() {
+        assert!(offers_channels("JACK", 1..=64, 13).is_ok());
+        let err = offers_channels("ALSA: hw", [1, 2].into_iter(), 13).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "audio device ALSA: hw: --stems needs 13 output channels (the mix and one per kit piece); it offers at most 2"
+        );
     }
 }

@@ -87,6 +87,11 @@ impl Engine {
         self
     }
 
+    /// The most frames one block holds (a stem covers the last block, at most this).
+    pub fn max_block(&self) -> usize {
+        self.max_block
+    }
+
     /// Pieces with a stem: the kit's pieces after `with_stems`, else none.
     pub fn stem_count(&self) -> usize {
         self.stems.len()

@@ -112,7 +112,8 @@ impl Renderer {
         settings: &OutputSettings,
         stats: Arc<OutputStats>,
     ) -> Renderer {
-        let block = settings.max_block.max(1);
+        // No longer than the engine's block, so that each chunk's stems are whole.
+        let block = settings.max_block.min(engine.max_block()).max(1);
         Renderer {
             latency: engine.latency_samples() as u64,
             engine,
