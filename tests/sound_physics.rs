@@ -341,3 +341,27 @@ fn the_residual_spring_stands_in_for_the_modes_above_the_contact() {
     assert!((a.peak_force_n / b.peak_force_n - 1.0).abs() < 0.15, "{} vs {} N", a.peak_force_n, b.peak_force_n);
     assert!((a.rebound_mps / b.rebound_mps - 1.0).abs() < 0.03, "{} vs {} m/s", a.rebound_mps, b.rebound_mps);
 }
+
+/// The body's head collider ends at the drum's radius, where the real drum's bearing edge and
+/// hoop are: a stick landing on a tom's edge (a tom rim note, live, with no offline
+/// correction) touches the head exactly there. Every mode shape is 0 at r = a, so such a
+/// contact used to sound nothing at all; it drives the head as at its outer ring.
+#[test]
+fn a_stick_landing_on_a_drums_edge_sounds_the_head_as_at_its_outer_ring() {
+    let kit = Kit::builtin_default();
+    let peak = |id: &str, r_frac: f32| {
+        let mut e = engine_with(&kit);
+        e.push(hit(&kit, id, 0, 3.5, r_frac));
+        let (l, r) = render(&mut e, 24_000);
+        l.iter().chain(&r).fold(0.0f32, |m, x| m.max(x.abs()))
+    };
+    for id in ["tom1", "tom2", "floor_tom", "snare"] {
+        let (centre, ring, edge) = (peak(id, 0.0), peak(id, 0.93), peak(id, 1.0));
+        let db = |p: f32| 20.0 * p.max(1e-12).log10();
+        println!("{id}: centre {:.1} dBFS, r = 0.93 a {:.1}, r = a {:.1}", db(centre), db(ring), db(edge));
+        assert!(db(edge) > db(centre) - 25.0, "{id}: a strike on the edge is {:.1} dB, the centre {:.1}", db(edge), db(centre));
+        assert!((db(edge) - db(ring)).abs() < 0.5, "{id}: edge {:.1} dB vs outer ring {:.1}", db(edge), db(ring));
+    }
+    // Off the piece altogether is still nothing.
+    assert_eq!(peak("tom1", 1.2), 0.0);
+}
