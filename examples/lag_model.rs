@@ -7,7 +7,7 @@
 //! `cargo run --release --example lag_model -- [--seconds S] [--out FILE] [--live] TAKE.mid ...`
 //! (`--live`: learn from live play on the sliding window, `perform::replay`, instead).
 //! The shipped model: the 17 Groove MIDI training takes listed in the README ("The live
-//! physical drummer"), 45 s of each, played straight through.
+//! physical drummer"), 45 s of each, played straight through with live play's targets.
 
 use drumsim::kit::Kit;
 use drumsim::midi::{read_file, NoteMap, ReadOptions};
@@ -16,6 +16,7 @@ use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
 use drumsim::perform::lag::{LagModel, LagSample};
 use drumsim::perform::matching::{match_contacts, onsets, Onset};
 use drumsim::perform::replay::{replay, ReplaySettings};
+use drumsim::perform::targets::TargetSettings;
 use drumsim::perform::{play_with, RehearsalSettings};
 use std::path::{Path, PathBuf};
 
@@ -47,7 +48,8 @@ fn main() -> anyhow::Result<()> {
         } else {
             let predicted = model_hands(&HandModel::shipped(), &perf, &map);
             let planned = perform_planned(&perf, &map, &kit, &predicted, &shipped_library()?)?;
-            let straight = RehearsalSettings { attempts: 0, ..Default::default() };
+            // Straight through, with live play's targets (the stick's angle held at each hit).
+            let straight = RehearsalSettings { attempts: 0, targets: TargetSettings::live(), ..Default::default() };
             play_with(&kit, &perf, &map, &planned, end, &straight)?.messages
         };
         let (of, _) = match_contacts(&notes, &msgs);

@@ -16,6 +16,7 @@ use drumsim::motion::hands::HandModel;
 use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library};
 use drumsim::perform::matching::{match_contacts, onsets, Onset};
 use drumsim::perform::replay::{replay, ReplaySettings};
+use drumsim::perform::targets::TargetSettings;
 use drumsim::perform::{play_with, RehearsalSettings};
 use std::path::Path;
 
@@ -40,6 +41,58 @@ fn score(notes: &[Onset], msgs: &[ContactMessage]) -> (f64, f64, f64, f64, Vec<u
     let missed = played.iter().enumerate().filter(|(_, p)| !**p).map(|(i, _)| i).collect();
     let spurious = of.iter().enumerate().filter(|(_, o)| o.is_none()).map(|(k, _)| k).collect();
     (recall, precision, mean, sd, missed, spurious)
+}
+
+/// Of the hand contacts matched to notes: the share struck at under half the speed their
+/// note's velocity asks (the kit's speed map), and the median of speed / asked.
+fn speeds(kit: &Kit, notes: &[Onset], msgs: &[ContactMessage]) -> (f64, f64, f64) {
+    let (of, _) = match_contacts(notes, msgs);
+    let pairs: Vec<(f64, f64)> = of
+        .iter()
+        .zip(msgs)
+        .filter(|(_, m)| {
+            !matches!(m.limb, drumsim::interaction::Limb::RightFoot | drumsim::interaction::Limb::LeftFoot)
+        })
+        .filter_map(|(o, m)| o.map(|i| (f64::from(notes[i].velocity), f64::from(m.speed_mps))))
+        .collect();
+    let mut ratios: Vec<f64> = of
+        .iter()
+        .zip(msgs)
+        .filter(|(_, m)| {
+            !matches!(m.limb, drumsim::interaction::Limb::RightFoot | drumsim::interaction::Limb::LeftFoot)
+        })
+        .filter_map(|(o, m)| o.map(|i| f64::from(m.speed_mps / kit.strike.speed_for_velocity(notes[i].velocity))))
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    let soft = ratios.iter().filter(|r| **r < 0.5).count() as f64 / ratios.len().max(1) as f64;
+    (soft, ratios.get(ratios.len() / 2).copied().unwrap_or(0.0), spearman(&pairs))
+}
+
+/// Spearman's rank correlation of the pairs (ties ranked by their mean rank).
+fn spearman(pairs: &[(f64, f64)]) -> f64 {
+    let rank = |v: Vec<f64>| {
+        let mut idx: Vec<usize> = (0..v.len()).collect();
+        idx.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
+        let mut r = vec![0.0; v.len()];
+        let mut i = 0;
+        while i < idx.len() {
+            let mut j = i;
+            while j + 1 < idx.len() && v[idx[j + 1]] == v[idx[i]] {
+                j += 1;
+            }
+            for k in i..=j {
+                r[idx[k]] = 0.5 * (i + j) as f64;
+            }
+            i = j + 1;
+        }
+        r
+    };
+    let (a, b) = (rank(pairs.iter().map(|p| p.0).collect()), rank(pairs.iter().map(|p| p.1).collect()));
+    let n = a.len().max(1) as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let cov: f64 = a.iter().zip(&b).map(|(x, y)| (x - ma) * (y - mb)).sum();
+    let (va, vb): (f64, f64) = (a.iter().map(|x| (x - ma).powi(2)).sum(), b.iter().map(|y| (y - mb).powi(2)).sum());
+    cov / (va * vb).sqrt().max(1e-12)
 }
 
 fn main() -> anyhow::Result<()> {
@@ -82,8 +135,15 @@ fn main() -> anyhow::Result<()> {
             true => (vec![], vec![]),
             false => (
                 play_with(&kit, &perf, &map, &planned, end, &RehearsalSettings::default())?.messages,
-                play_with(&kit, &perf, &map, &planned, end, &RehearsalSettings { attempts: 0, ..Default::default() })?
-                    .messages,
+                play_with(
+                    &kit,
+                    &perf,
+                    &map,
+                    &planned,
+                    end,
+                    &RehearsalSettings { attempts: 0, targets: TargetSettings::live(), ..Default::default() },
+                )?
+                .messages,
             ),
         };
         let live = replay(&kit, &map, HandModel::shipped(), shipped_library()?, &perf, end, &settings)?;
@@ -100,16 +160,31 @@ fn main() -> anyhow::Result<()> {
                 .enumerate()
         {
             let (r, p, m, sd, missed, spurious) = score(&notes, msgs);
+            let (soft, ratio, rho) = speeds(&kit, &notes, msgs);
             println!(
-                "  {name:20} recall {:6.2} %  precision {:6.2} %  timing {m:+5.2} / {sd:4.2} ms",
+                "  {name:20} recall {:6.2} %  precision {:6.2} %  timing {m:+5.2} / {sd:4.2} ms  hand strokes \
+                 under half the asked speed {:5.2} %, median speed / asked {ratio:.2}, velocity-speed Spearman {rho:.3}",
                 100.0 * r,
-                100.0 * p
+                100.0 * p,
+                100.0 * soft
             );
             for (j, v) in [r, p, m, sd].into_iter().enumerate() {
                 totals[k][j] += v / takes.len() as f64;
             }
             if verbose && name != "offline, rehearsed" {
                 println!("   {name}:");
+                let (of, _) = match_contacts(&notes, msgs);
+                for (o, m) in of.iter().zip(msgs.iter()) {
+                    if let Some(i) = o {
+                        let asked = kit.strike.speed_for_velocity(notes[*i].velocity);
+                        if m.speed_mps < 0.5 * asked && (m.limb as u8) < 2 {
+                            println!(
+                                "    soft {:7.3} s {} vel {} speed {:.2} of {:.2} limb {:?}",
+                                notes[*i].time_s, notes[*i].piece, notes[*i].velocity, m.speed_mps, asked, m.limb
+                            );
+                        }
+                    }
+                }
                 for i in missed {
                     println!("    missed {:7.3} s {}", notes[i].time_s, notes[i].piece);
                 }

@@ -181,7 +181,8 @@ fn a_groove_midi_take_played_live_is_struck_by_the_body_each_note_lookahead_afte
 /// client records drumsim's audio ports, the stereo mix and one channel per kit piece, and
 /// finds each strike in the audio alone (`eval::onsets` on each piece's channel). Each
 /// note's piece must sound within 10 ms of its note time plus the lookahead, as in the
-/// contacts test above, but measured in the recording against the sent MIDI.
+/// contacts test above, but measured in the recording against the sent MIDI: recall and
+/// precision 99 %, mean within 2 ms, sd 3 ms.
 #[test]
 fn the_take_played_live_sounds_in_the_recorded_audio_of_each_piece_lookahead_after_each_note() {
     use drumsim::eval::onsets::stem_onsets;
@@ -287,7 +288,10 @@ fn the_take_played_live_sounds_in_the_recorded_audio_of_each_piece_lookahead_aft
             save_wav(&Path::new(&dir).join(format!("{}.wav", piece.id)), t);
         }
     }
-    assert!(recall >= 0.97 && precision >= 0.98, "recall {recall:.3}, precision {precision:.3}");
+    // The targets. Measured (README): recall 99.63-99.81 %, precision 99.44-100 %,
+    // mean +0.05 to +0.09 ms, sd 1.24-1.32 ms; the notes missed are a hi-hat foot closing a
+    // ringing open hat and the soft stroke 33 ms after it.
+    assert!(recall >= 0.99 && precision >= 0.99, "recall {recall:.3}, precision {precision:.3}");
     assert!(mean.abs() <= 0.002 && sd <= 0.003, "strike - note - lookahead: mean {mean:+.4} s, sd {sd:.4} s");
 }
 

@@ -359,7 +359,12 @@ fn a_stick_landing_on_a_drums_edge_sounds_the_head_as_at_its_outer_ring() {
         let (centre, ring, edge) = (peak(id, 0.0), peak(id, 0.93), peak(id, 1.0));
         let db = |p: f32| 20.0 * p.max(1e-12).log10();
         println!("{id}: centre {:.1} dBFS, r = 0.93 a {:.1}, r = a {:.1}", db(centre), db(ring), db(edge));
-        assert!(db(edge) > db(centre) - 25.0, "{id}: a strike on the edge is {:.1} dB, the centre {:.1}", db(edge), db(centre));
+        assert!(
+            db(edge) > db(centre) - 25.0,
+            "{id}: a strike on the edge is {:.1} dB, the centre {:.1}",
+            db(edge),
+            db(centre)
+        );
         assert!((db(edge) - db(ring)).abs() < 0.5, "{id}: edge {:.1} dB vs outer ring {:.1}", db(edge), db(ring));
     }
     // Off the piece altogether is still nothing.

@@ -59,7 +59,12 @@ impl TargetShape {
 
     /// The tip targets of a plan.
     pub fn targets(&self, hands: &PlannedHands) -> TipTargets {
-        TipTargets::new(hands, self.bead_m, self.shaft_m, TargetSettings::default())
+        self.targets_with(hands, TargetSettings::default())
+    }
+
+    /// The tip targets of a plan, made with `settings` (live play's: [`TargetSettings::live`]).
+    pub fn targets_with(&self, hands: &PlannedHands, settings: TargetSettings) -> TipTargets {
+        TipTargets::new(hands, self.bead_m, self.shaft_m, settings)
     }
 }
 
@@ -191,8 +196,21 @@ impl Conductor {
         planned: &Planned,
         settings: DrummerSettings,
     ) -> Result<Conductor, DrummerError> {
+        Conductor::new_with(kit, perf, map, planned, settings, TargetSettings::default())
+    }
+
+    /// [`Conductor::new`] with the tip targets made with `targets` (the lag model learns
+    /// from straight play with live play's, [`TargetSettings::live`]).
+    pub fn new_with(
+        kit: &Kit,
+        perf: &Performance,
+        map: &NoteMap,
+        planned: &Planned,
+        settings: DrummerSettings,
+        targets: TargetSettings,
+    ) -> Result<Conductor, DrummerError> {
         let drummer = Drummer::new(kit, settings)?;
-        let targets = TargetShape::of(&drummer).targets(&planned.hands);
+        let targets = TargetShape::of(&drummer).targets_with(&planned.hands, targets);
         let bodies = PedalBodies::new(kit);
         let pedal_targets = bodies.as_ref().map(|b| PedalTargets::new(perf, map, kit, b, &planned.motion));
         Ok(Conductor::assemble(kit, drummer, targets, bodies, pedal_targets, -PREROLL_S))

@@ -97,7 +97,7 @@ pub fn play_as(
     settings: &RehearsalSettings,
     drummer: DrummerSettings,
 ) -> Result<PhysicalTake, DrummerError> {
-    let mut c = Conductor::new(kit, perf, map, planned, drummer)?;
+    let mut c = Conductor::new_with(kit, perf, map, planned, drummer, settings.targets)?;
     let frames = (end_s.max(0.0) * 60.0) as usize + 2;
     let (mut tips, mut hands, mut hihat_openness) =
         (Vec::with_capacity(frames), Vec::with_capacity(frames), Vec::new());

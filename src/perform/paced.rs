@@ -22,7 +22,7 @@
 use super::conductor::{Conductor, TargetShape};
 use super::feet::PedalTargets;
 use super::lag::LagModel;
-use super::targets::TipTargets;
+use super::targets::{TargetSettings, TipTargets};
 use crate::body::contacts::Strike;
 use crate::body::pedals::PedalBodies;
 use crate::body::strokes::TASK_HZ;
@@ -94,10 +94,11 @@ impl BodyPlanner {
 
     pub fn plan(&self, w: &WindowPlan) -> BodyPlan {
         let targets = match &self.lag {
-            Some(lag) => self
-                .shape
-                .targets(&w.hands.aimed(|n, since| lag.lag_s(&self.kit.pieces[n.piece].id, n.velocity, since))),
-            None => self.shape.targets(&w.hands),
+            Some(lag) => self.shape.targets_with(
+                &w.hands.aimed(|n, since| lag.lag_s(&self.kit.pieces[n.piece].id, n.velocity, since)),
+                TargetSettings::live(),
+            ),
+            None => self.shape.targets_with(&w.hands, TargetSettings::live()),
         };
         let pedals = self
             .bodies

@@ -13,6 +13,7 @@
 
 use super::conductor::{period_index, Conductor, PREROLL_S};
 use super::matching::DOUBLE_TRIGGER_S;
+use super::targets::TargetSettings;
 use crate::body::contacts::Strike;
 use crate::body::strokes::TASK_HZ;
 use crate::motion::plan::HandNote;
@@ -32,6 +33,9 @@ pub struct RehearsalSettings {
     pub settle_s: f64,
     /// Task periods between snapshots.
     pub snapshot_every: usize,
+    /// How the tip targets are made (live play's, [`TargetSettings::live`], to learn the
+    /// live drummer's lag model from straight play).
+    pub targets: TargetSettings,
 }
 
 impl Default for RehearsalSettings {
@@ -42,6 +46,7 @@ impl Default for RehearsalSettings {
             aim_tolerance_m: 0.010,
             settle_s: 0.030,
             snapshot_every: 4,
+            targets: TargetSettings::default(),
         }
     }
 }
