@@ -14,6 +14,9 @@ use crate::midi::roll::{piano_roll, PianoRoll};
 use crate::midi::{NoteMap, Performance};
 use crate::rng::Rng;
 
+/// The seed of the blinks added where the retrieved face stares ([`upper::blinks`]).
+const BLINK_SEED: u64 = 0xB11C;
+
 #[derive(Debug, thiserror::Error)]
 pub enum MotionError {
     #[error(transparent)]
@@ -107,7 +110,7 @@ pub fn perform_planned_roll(
     predicted: &[[Pose; 2]],
     library: &Library,
 ) -> Result<Planned, MotionError> {
-    planned_with(perf, map, roll, kit, predicted, Some((library, &MatchIndex::of(library)?)), &|_| None)
+    planned_with(perf, map, roll, kit, predicted, Some((library, &MatchIndex::of(library)?)), &|_| None, 0.0)
 }
 
 /// [`perform_planned`] with the library's index made beforehand (`MatchIndex::of(library)`):
@@ -121,7 +124,21 @@ pub fn perform_planned_indexed(
     (library, index): (&Library, &MatchIndex),
     kept: &dyn Fn(&HandNote) -> Option<usize>,
 ) -> Result<Planned, MotionError> {
-    planned_with(perf, map, &piano_roll(perf, map), kit, predicted, Some((library, index)), kept)
+    perform_planned_indexed_at(perf, map, kit, predicted, (library, index), kept, 0.0)
+}
+
+/// [`perform_planned_indexed`] for a performance that starts `origin_s` seconds into the
+/// session (a live window), so that the face's added blinks fall where the session's do.
+pub fn perform_planned_indexed_at(
+    perf: &Performance,
+    map: &NoteMap,
+    kit: &Kit,
+    predicted: &[[Pose; 2]],
+    (library, index): (&Library, &MatchIndex),
+    kept: &dyn Fn(&HandNote) -> Option<usize>,
+    origin_s: f64,
+) -> Result<Planned, MotionError> {
+    planned_with(perf, map, &piano_roll(perf, map), kit, predicted, Some((library, index)), kept, origin_s)
 }
 
 /// What the simulated body plays from, and no more: the planned hands and the feet (the
@@ -146,9 +163,10 @@ pub fn perform_planned_for_body_kept(
     predicted: &[[Pose; 2]],
     kept: &dyn Fn(&HandNote) -> Option<usize>,
 ) -> Result<Planned, MotionError> {
-    planned_with(perf, map, &piano_roll(perf, map), kit, predicted, None, kept)
+    planned_with(perf, map, &piano_roll(perf, map), kit, predicted, None, kept, 0.0)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn planned_with(
     perf: &Performance,
     map: &NoteMap,
@@ -157,6 +175,7 @@ fn planned_with(
     predicted: &[[Pose; 2]],
     upper: Option<(&Library, &MatchIndex)>,
     kept: &dyn Fn(&HandNote) -> Option<usize>,
+    origin_s: f64,
 ) -> Result<Planned, MotionError> {
     let frames = roll.len();
     if frames == 0 || perf.events.is_empty() {
@@ -197,6 +216,7 @@ fn planned_with(
             let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
             let (mut upper, retrieval) = upper::retrieve_indexed(library, index, &masks, &MatchSettings::default())?;
             upper::turn::turn_toward_hands(&mut upper, &hands);
+            upper::blinks::keep_blinking(&mut upper, FPS, origin_s, BLINK_SEED);
             Some((hands, upper, retrieval))
         }
         None => None,

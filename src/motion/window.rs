@@ -202,7 +202,8 @@ impl WindowMotion {
         let planned = match &self.index {
             _ if !self.upper => pipeline::perform_planned_for_body_kept(&perf, &self.map, &self.kit, &hands, &kept)?,
             Some(index) => {
-                pipeline::perform_planned_indexed(&perf, &self.map, &self.kit, &hands, (&self.library, index), &kept)?
+                let at = (&self.library, index);
+                pipeline::perform_planned_indexed_at(&perf, &self.map, &self.kit, &hands, at, &kept, start)?
             }
             None => pipeline::perform_planned(&perf, &self.map, &self.kit, &hands, &self.library)?,
         };

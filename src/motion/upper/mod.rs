@@ -13,12 +13,14 @@
 //! consecutive windows are cross-faded over a few frames at their seam.
 //!
 //! The retrieved chest and head are then turned toward where the hands play on this kit
-//! (`turn.rs`).
+//! (`turn.rs`), and the face blinks at a human rate where the retrieved one stares
+//! (`blinks.rs`).
 //!
 //! The library holds only training material (`library.rs`): windows of the teacher's
 //! motion of the Groove MIDI train split, or of loaded mocap, built by
 //! [`crate::learn::upper_library`].
 
+pub mod blinks;
 pub mod library;
 pub mod matching;
 pub mod turn;
