@@ -55,6 +55,11 @@ pub struct MotionQuality {
     pub max_wrist_step_at: String,
     pub wrist_steps_over_6cm: usize,
     pub wrist_steps_over_10cm: usize,
+    /// Largest travel of a foot (ankle or toe) between consecutive frames, m, where, and
+    /// foot-frames over 4 cm (a hi-hat foot following a CC4 step, a kick foot's blip).
+    pub max_foot_step_m: f32,
+    pub max_foot_step_at: String,
+    pub foot_steps_over_4cm: usize,
     /// Deepest stick, hand or arm proxy inside the torso or a thigh, m, where, and frames
     /// with one deeper than 1 cm.
     pub deepest_in_body_m: f32,
@@ -218,6 +223,12 @@ pub fn measure(rig: &Rig, motion: &Motion, poses: &[BodyPose], kit: &Kit, notes:
                 q.wrist_steps_over_10cm += usize::from(step > 0.10);
                 let wrist = ["left wrist", "right wrist"][side];
                 set_max(&mut q.max_wrist_step_m, &mut q.max_wrist_step_at, step, || at(wrist));
+                // The ankle and the toe (the bone after the foot).
+                let step =
+                    [FOOT[side], FOOT[side] + 1].iter().map(|&b| (w[b].0 - pw[b].0).norm()).fold(0.0f32, f32::max);
+                q.foot_steps_over_4cm += usize::from(step > 0.04);
+                let foot = ["left foot", "right foot"][side];
+                set_max(&mut q.max_foot_step_m, &mut q.max_foot_step_at, step, || at(foot));
             }
         }
         // Proxies.
@@ -379,6 +390,7 @@ impl MotionQuality {
         }
         self.wrist_steps_over_6cm += other.wrist_steps_over_6cm;
         self.wrist_steps_over_10cm += other.wrist_steps_over_10cm;
+        self.foot_steps_over_4cm += other.foot_steps_over_4cm;
         self.frames_in_body += other.frames_in_body;
         for (pair, n) in &other.frames_in_body_by_pair {
             *self.frames_in_body_by_pair.entry(pair.clone()).or_default() += n;
@@ -413,6 +425,7 @@ impl MotionQuality {
             &other.deepest_leg_in_kit_at,
         );
         take(&mut self.max_wrist_step_m, &mut self.max_wrist_step_at, other.max_wrist_step_m, &other.max_wrist_step_at);
+        take(&mut self.max_foot_step_m, &mut self.max_foot_step_at, other.max_foot_step_m, &other.max_foot_step_at);
         self.ghost_lifts.extend_from_slice(&other.ghost_lifts);
         self.accent_lifts.extend_from_slice(&other.accent_lifts);
         self.finish();
