@@ -29,7 +29,8 @@ fn main() -> Result<()> {
     let recorded = PathBuf::from(args.next().context("usage: spectrograms RECORDED_WAVS_DIR OUT_DIR")?);
     let out = PathBuf::from(args.next().unwrap_or_else(|| "docs/spectrograms".into()));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    let kit = Kit::builtin_default();
+    // KIT=NAME|FILE draws another kit beside the recorded ones.
+    let kit = Kit::load(std::path::Path::new(&std::env::var("KIT").unwrap_or("default".into())))?;
     let strokes = audition::strokes(&kit);
     for name in STROKES {
         let stroke = strokes.iter().find(|s| s.name == name).context("a stroke of the default kit")?;

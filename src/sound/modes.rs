@@ -138,6 +138,10 @@ impl ModeSet {
         // Radiation: a head's modes with many nodal diameters radiate little; a plate below
         // its coincidence frequency radiates from its edge, more the higher the mode
         // (efficiency about sqrt(f / f_c), Maidanik), and fully above it.
+        // A head radiates as a piston: below k a = 1 (a wavelength longer than its
+        // circumference) the pressure follows the head's acceleration, not its velocity, so
+        // a tom's fundamental is weaker against its upper modes than its velocity says.
+        let small_source_hz = SPEED_OF_SOUND / (2.0 * PI * piece.radius_m as f64);
         let coincidence_hz = match piece.kind {
             PieceKind::Plate => {
                 let h = piece.areal_density_kg_m2 as f64 / BRONZE_DENSITY;
@@ -147,7 +151,7 @@ impl ModeSet {
         };
         for mode in &mut modes {
             let radiation = match piece.kind {
-                PieceKind::Membrane => 1.0 / (1.0 + 0.5 * mode.m as f64),
+                PieceKind::Membrane => (mode.freq_hz / small_source_hz).min(1.0) / (1.0 + 0.5 * mode.m as f64),
                 PieceKind::Plate => (mode.freq_hz / coincidence_hz).sqrt().min(1.0),
             };
             let pickup = shape(mode, PICKUP_RHO, PICKUP_THETA);
