@@ -135,12 +135,12 @@ impl ModeSet {
             PieceKind::Plate => PLATE_OUTPUT_SCALE,
         };
         let level = 10f64.powf(piece.gain_db as f64 / 20.0) * scale;
-        // Radiation: a head's modes with many nodal diameters radiate little; a plate below
-        // its coincidence frequency radiates from its edge, more the higher the mode
-        // (efficiency about sqrt(f / f_c), Maidanik), and fully above it.
-        // A head radiates as a piston: below k a = 1 (a wavelength longer than its
-        // circumference) the pressure follows the head's acceleration, not its velocity, so
-        // a tom's fundamental is weaker against its upper modes than its velocity says.
+        // Radiation: a head radiates as a piston: below k a = 1 (a wavelength longer than
+        // its circumference) the pressure follows the head's acceleration, not its velocity,
+        // so a tom's fundamental is weaker against its upper modes than its velocity says;
+        // its modes with many nodal diameters radiate little. A plate below its coincidence
+        // frequency radiates from its edge, more the higher the mode (efficiency about
+        // sqrt(f / f_c), Maidanik), and fully above it.
         let small_source_hz = SPEED_OF_SOUND / (2.0 * PI * piece.radius_m as f64);
         let coincidence_hz = match piece.kind {
             PieceKind::Plate => {
