@@ -291,7 +291,9 @@ fn toms_attack_as_bright_as_recorded_toms() {
     let every_recorded = |f: fn(&HitMeasures) -> f64| -> Vec<(String, f64)> {
         toms.iter()
             .flat_map(|t| [64, 127].map(|v| (t, v)))
-            .flat_map(|(t, v)| recorded(t, v, |m| Some(f(m))).into_iter().map(move |(k, x)| (format!("{k} {t} {v}"), x)))
+            .flat_map(|(t, v)| {
+                recorded(t, v, |m| Some(f(m))).into_iter().map(move |(k, x)| (format!("{k} {t} {v}"), x))
+            })
             .collect()
     };
     let centroids = every_recorded(|m| m.centroid_50ms_hz);
