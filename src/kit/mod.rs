@@ -59,6 +59,11 @@ pub struct Piece {
     /// Hertz contact F = k c^alpha for hardness 1.0.
     pub hertz_k: f32,
     pub hertz_alpha: f32,
+    /// Radius of the patch a strike presses on a head (a stick's tip, a beater's face), m:
+    /// each mode is driven by its shape's mean over that disc, 2 J1(k b) / (k b) of its value
+    /// at the point (exact for a membrane's modes), so modes shorter than the patch are
+    /// hardly struck. Membranes; 0 on plates (a point).
+    pub contact_radius_m: f32,
     pub gain_db: f32,
     pub wires: Option<Wires>,
     /// Hi-hat: how much faster every mode decays when fully closed (None: not a hi-hat).

@@ -26,6 +26,9 @@ struct RawKit {
 
 /// Oscillators per piece when the kit does not say: membranes, plates.
 const DEFAULT_MAX_MODES: [usize; 2] = [1024, 2048];
+/// `contact_radius_m` when the kit does not say: a stick's tip pressed into a head, a point on
+/// a plate.
+const DEFAULT_CONTACT_RADIUS_M: [f32; 2] = [0.003, 0.0];
 /// `stretch` when the kit does not say: membranes, plates.
 const DEFAULT_STRETCH: [f32; 2] = [1.0, 1.0];
 
@@ -68,6 +71,7 @@ struct RawPiece {
     chladni_exponent: Option<f32>,
     hertz_k: f32,
     hertz_alpha: f32,
+    contact_radius_m: Option<f32>,
     gain_db: f32,
     wires: Option<RawWires>,
     closed_damping_factor: Option<f32>,
@@ -238,6 +242,12 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Kit, KitError> {
             chladni_exponent: c.range(&key("chladni_exponent"), p.chladni_exponent.unwrap_or(1.4), 1.0, 2.5)?,
             hertz_k: c.range(&key("hertz_k"), p.hertz_k, 1e4, 1e12)?,
             hertz_alpha: c.range(&key("hertz_alpha"), p.hertz_alpha, 1.0, 4.0)?,
+            contact_radius_m: c.range(
+                &key("contact_radius_m"),
+                p.contact_radius_m.unwrap_or(DEFAULT_CONTACT_RADIUS_M[kind as usize]),
+                0.0,
+                0.05,
+            )?,
             gain_db: c.range(&key("gain_db"), p.gain_db, -60.0, 24.0)?,
             wires,
             closed_damping_factor: match p.closed_damping_factor {

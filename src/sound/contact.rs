@@ -178,8 +178,10 @@ pub fn run_contact(
     let mut inv_mass = 0.0;
     let mut compliance = 0.0;
     modes.shapes_at(strike.x_m, strike.y_m, |k, phi| {
-        chunks_all[k / LANES].phi[k % LANES] = phi as f32;
         let mode = &modes.modes[k];
+        // The strike presses a patch, not a point: each mode feels its shape's mean over it.
+        let phi = phi * mode.patch;
+        chunks_all[k / LANES].phi[k % LANES] = phi as f32;
         if k < split {
             inv_mass += phi * phi / mode.mass_kg;
         } else {

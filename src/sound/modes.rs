@@ -35,6 +35,9 @@ pub struct Mode {
     /// Integral of the squared slope of the mode shape over the surface, m^2 (the mode's
     /// share of the in-plane stretch per squared displacement, [`ModeSet::stretch`]).
     pub slope2: f64,
+    /// How much of its shape at the strike point a strike drives: its mean over the contact
+    /// patch ([`crate::kit::Piece::contact_radius_m`]), 2 J1(k b) / (k b); 1 for a point.
+    pub patch: f64,
 }
 
 /// The modes of one piece, lowest frequency first.
@@ -168,8 +171,17 @@ impl ModeSet {
         // integral |grad phi|^2 = (zero / a)^2 integral phi^2 (exact for a fixed-edge
         // membrane, close for the free plate's Bessel shapes), and integral phi^2 = M / rho_s.
         let (a, rho_s) = (piece.radius_m as f64, piece.areal_density_kg_m2 as f64);
+        // The mean of a solution of the Helmholtz equation over a disc of radius b is its
+        // value at the centre times 2 J1(k b) / (k b) (the mean-value theorem of the
+        // Helmholtz equation): a membrane mode's radial wavenumber is zero / a.
+        let b = match piece.kind {
+            PieceKind::Membrane => piece.contact_radius_m as f64,
+            PieceKind::Plate => 0.0,
+        };
         for mode in &mut modes {
             mode.slope2 = (mode.zero / a).powi(2) * mode.mass_kg / rho_s;
+            let x = mode.zero * b / a;
+            mode.patch = if x < 1e-6 { 1.0 } else { 2.0 * bessel_j(1, x) / x };
         }
         let (e_over_rho, poisson) = match piece.kind {
             PieceKind::Membrane => (MYLAR_E_OVER_RHO, MYLAR_POISSON),
@@ -315,6 +327,7 @@ fn membrane_modes(piece: &Piece) -> Vec<Mode> {
             out_gain: 1.0,
             stands_for: 1.0,
             slope2: 0.0,
+            patch: 1.0,
         };
         push_twins(&mut all, mode, usize::MAX);
     }
@@ -430,6 +443,7 @@ fn plate_modes(piece: &Piece) -> Vec<Mode> {
             out_gain: (stride as f64).sqrt(),
             stands_for: stride as f64,
             slope2: 0.0,
+            patch: 1.0,
         };
         push_twins(&mut modes, mode, usize::MAX);
         // A hammered cymbal is not axisymmetric: the cos and sin twins of a pair split
