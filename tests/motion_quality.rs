@@ -58,6 +58,9 @@ fn holds(kit: &Kit) {
     // Knees, thighs, shins and feet outside every drum, in every frame.
     assert!(q.deepest_leg_in_kit_m < 0.0, "{:.1} cm: {}", q.deepest_leg_in_kit_m * 100.0, q.deepest_leg_in_kit_at);
     assert_eq!(q.frames_leg_in_kit, 0);
+    // Feet ease on and off their pedals: no ankle or toe moves over 4 cm in a frame (CC4's
+    // steps moved the hi-hat foot 8 cm, a kick press of two frames the kick foot 7 cm).
+    assert!(q.max_foot_step_m <= 0.04, "{:.1} cm: {}", q.max_foot_step_m * 100.0, q.max_foot_step_at);
     // Ghost notes lift the stick at most half as high as accents (median).
     let ratio = q.ghost_over_accent.expect("ghost notes and accents");
     assert!(ratio <= 0.5, "ghost notes lift {ratio:.2} of accents");

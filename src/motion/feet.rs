@@ -1,12 +1,15 @@
 //! Feet ("pedal enforcement", DESIGN.md 1a) and hi-hat openness.
-//! - Right foot on the kick pedal: for each kick note it lifts and tilts back (toe up) from
-//!   2..5 frames before the hit (more for louder notes, +-1 frame seeded) and is down at rest
-//!   exactly at the hit's frame.
+//! - Right foot on the kick pedal: for each kick note it rises and tilts back (toe up), eased
+//!   over 5-7 frames (seeded), higher for louder notes, then drives down at one speed over the
+//!   last [`PRESS_FALL_FRAMES`] and is down at rest exactly at the hit's frame. No frame moves
+//!   the foot by more than a third of a full press (a 2-frame blip moved the toe 7 cm).
 //! - Left foot on the hi-hat pedal: raised as far as the hi-hat is open. Openness comes from
 //!   CC4 when the file has it (1 - value / 127, held until the next value), else from the
 //!   notes: an open hi-hat note (its map entry's openness > 0.3) opens it and it stays open
-//!   until a closed hi-hat or pedal note, or at most `OPEN_HOLD_FRAMES`. A hi-hat pedal note
-//!   ("chick") is a press like the kick's.
+//!   until a closed hi-hat or pedal note, or at most `OPEN_HOLD_FRAMES`. The foot follows
+//!   that openness at most [`FOOT_SLEW`] a frame, its ramp centred on each step (CC4's steps
+//!   moved the toe up to 8 cm in a frame); the openness itself (what the sound is told) keeps
+//!   the data's steps. A hi-hat pedal note ("chick") is a press like the kick's.
 
 use crate::midi::roll::frame_of;
 use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
@@ -43,22 +46,52 @@ pub struct Feet {
     pub openness: Vec<f32>,
 }
 
-/// Raise `lift` (0..1) for a press whose hit is at frame `hit`.
-fn press(lift: &mut [f32], hit: usize, lead: usize, amount: f32) {
-    for k in 1..=lead {
+/// Frames over which a press comes down onto its pedal, at one speed.
+pub const PRESS_FALL_FRAMES: usize = 3;
+/// Most the hi-hat foot's lift (0..1) changes in a frame as it follows the openness.
+pub const FOOT_SLEW: f32 = 0.3;
+
+/// Raise `lift` (0..1) for a press whose hit is at frame `hit`: eased up over `rise` frames,
+/// at the top `PRESS_FALL_FRAMES` before the hit, straight down to the hit.
+fn press(lift: &mut [f32], hit: usize, rise: usize, amount: f32) {
+    for k in 1..=PRESS_FALL_FRAMES + rise {
         let Some(f) = hit.checked_sub(k) else { break };
+        let up = if k <= PRESS_FALL_FRAMES {
+            k as f32 / PRESS_FALL_FRAMES as f32
+        } else {
+            let u = (k - PRESS_FALL_FRAMES) as f32 / rise as f32;
+            0.5 * (1.0 + (std::f32::consts::PI * u).cos())
+        };
         if let Some(x) = lift.get_mut(f) {
-            // sin over the lead: rising, top near the middle, falling to zero at the hit.
-            let s = 1.0 - k as f32 / (lead + 1) as f32;
-            *x = x.max(amount * (std::f32::consts::PI * s).sin());
+            *x = x.max(amount * up);
         }
     }
+}
+
+/// `x` followed at most `rate` a frame, the ramp centred on each step: the mean of the
+/// lagging (forward) and leading (backward) rate-limited followers.
+fn centred_slew(x: &[f32], rate: f32) -> Vec<f32> {
+    let follow = |order: &mut dyn Iterator<Item = usize>| {
+        let mut y = vec![0f32; x.len()];
+        let mut last = None::<f32>;
+        for i in order {
+            let v = match last {
+                Some(l) => l + (x[i] - l).clamp(-rate, rate),
+                None => x[i],
+            };
+            (y[i], last) = (v, Some(v));
+        }
+        y
+    };
+    let (fwd, bwd) = (follow(&mut (0..x.len())), follow(&mut (0..x.len()).rev()));
+    fwd.iter().zip(&bwd).map(|(a, b)| 0.5 * (a + b)).collect()
 }
 
 /// The feet of `perf`, at rest at `home` (left, right ankles: [`home_for`] a kit).
 pub fn feet(perf: &Performance, map: &NoteMap, frames: usize, rng: &mut Rng, home: [[f32; 3]; 2]) -> Feet {
     let mut kick = vec![0f32; frames];
     let mut chick = vec![0f32; frames];
+    let (mut kick_hits, mut chick_hits) = (Vec::new(), Vec::new());
     let has_cc4 = perf.events.iter().any(|e| matches!(e.kind, DrumEventKind::HiHatPedal { .. }));
     let mut openness = vec![0f32; frames];
     let mut cc = None::<f32>;
@@ -72,14 +105,17 @@ pub fn feet(perf: &Performance, map: &NoteMap, frames: usize, rng: &mut Rng, hom
                 DrumEventKind::NoteOn { note, velocity } => {
                     let Some(m) = map.entry(note) else { continue };
                     let v = velocity as f32 / 127.0;
-                    let lead = 2 + (3.0 * v).round() as i64 + (rng.sym() * 1.49).round() as i64;
-                    let lead = lead.clamp(2, 5) as usize;
+                    let rise = (6 + (rng.sym() * 1.49).round() as i64).clamp(5, 7) as usize;
                     let hit = frame_of(e.time_s);
                     let is_hat = m.hihat_openness.is_some() || m.piece == "hihat";
                     match (m.zone, is_hat) {
-                        (Zone::Pedal, false) => press(&mut kick, hit, lead, 0.4 + 0.6 * v),
+                        (Zone::Pedal, false) => {
+                            press(&mut kick, hit, rise, 0.4 + 0.6 * v);
+                            kick_hits.push(hit);
+                        }
                         (Zone::Pedal, true) => {
-                            press(&mut chick, hit, lead, 0.3 + 0.4 * v);
+                            press(&mut chick, hit, rise, 0.3 + 0.4 * v);
+                            chick_hits.push(hit);
                             open_from = None;
                         }
                         (_, true) => match m.hihat_openness {
@@ -101,12 +137,26 @@ pub fn feet(perf: &Performance, map: &NoteMap, frames: usize, rng: &mut Rng, hom
             }
         };
     }
-    let feet = (0..frames)
-        .map(|f| {
-            let left_lift = openness[f].max(chick[f]);
-            [foot(home[0], left_lift), foot(home[1], kick[f])]
-        })
-        .collect();
+    // Every press is down at its own hit, whatever the next one's rise asked there, and a
+    // foot leaves a hit or comes down to one no faster than a press falls: at most d /
+    // PRESS_FALL_FRAMES of a full lift d frames from the nearest hit (notes a few frames
+    // apart are played low, not with the foot jumping up between them).
+    for (lift, hits) in [(&mut kick, &mut kick_hits), (&mut chick, &mut chick_hits)] {
+        hits.sort_unstable();
+        for (f, x) in lift.iter_mut().enumerate() {
+            let i = hits.partition_point(|&h| h < f);
+            let near = [i.checked_sub(1).map(|j| hits[j]), hits.get(i).copied()]
+                .into_iter()
+                .flatten()
+                .map(|h| h.abs_diff(f))
+                .min();
+            if let Some(d) = near {
+                *x = x.min(d as f32 / PRESS_FALL_FRAMES as f32);
+            }
+        }
+    }
+    let left = centred_slew(&openness, FOOT_SLEW);
+    let feet = (0..frames).map(|f| [foot(home[0], left[f].max(chick[f])), foot(home[1], kick[f])]).collect();
     Feet { feet, openness }
 }
 
@@ -138,7 +188,42 @@ mod tests {
         let rest = FEET_HOME[1][2];
         assert!((z(60) - rest).abs() < 1e-6, "down at the hit");
         let lifted: Vec<usize> = (0..181).filter(|&f| z(f) > rest + 1e-4).collect();
-        assert!(!lifted.is_empty() && lifted.len() <= 5 && lifted.iter().all(|&f| (55..60).contains(&f)), "{lifted:?}");
+        assert!(
+            !lifted.is_empty() && lifted.len() <= 10 && lifted.iter().all(|&f| (50..60).contains(&f)),
+            "{lifted:?}"
+        );
+        // No blip: it comes down over three frames, no frame moving it a third of the way.
+        let top = (0..181).map(z).fold(rest, f32::max);
+        assert!(z(57) == top && top > rest + 0.5 * PRESS_LIFT_M, "at the top three frames before");
+        let most = (1..181).map(|f| (z(f) - z(f - 1)).abs()).fold(0.0, f32::max);
+        assert!(most <= PRESS_LIFT_M / 3.0 + 1e-6, "{most}");
+    }
+
+    #[test]
+    fn two_kicks_a_frame_apart_are_each_down_at_their_hit() {
+        let map = NoteMap::builtin("roland-td").unwrap();
+        let kick = DrumEventKind::NoteOn { note: 36, velocity: 127 };
+        let p = perf(vec![(1.0, kick), (1.0 + 2.0 / 60.0, kick)]);
+        let ft = feet(&p, &map, 181, &mut Rng::new(1), FEET_HOME);
+        let rest = FEET_HOME[1][2];
+        assert!((ft.feet[60][1].pos[2] - rest).abs() < 1e-6 && (ft.feet[62][1].pos[2] - rest).abs() < 1e-6);
+        assert!(ft.feet[61][1].pos[2] > rest, "up between them");
+    }
+
+    #[test]
+    fn the_hi_hat_foot_ramps_through_a_cc4_step_the_openness_keeps() {
+        let map = NoteMap::builtin("roland-td").unwrap();
+        let p =
+            perf(vec![(0.0, DrumEventKind::HiHatPedal { value: 127 }), (1.0, DrumEventKind::HiHatPedal { value: 0 })]);
+        let ft = feet(&p, &map, 121, &mut Rng::new(1), FEET_HOME);
+        assert_eq!((ft.openness[59], ft.openness[60]), (0.0, 1.0), "the data's step");
+        let z = |f: usize| ft.feet[f][0].pos[2];
+        let most = (1..121).map(|f| (z(f) - z(f - 1)).abs()).fold(0.0, f32::max);
+        assert!(most <= FOOT_SLEW * PRESS_LIFT_M + 1e-6, "{most}");
+        // Centred: half way up about the step, fully open and shut away from it.
+        let half = FEET_HOME[0][2] + 0.5 * PRESS_LIFT_M;
+        assert!(z(58) < half && z(61) > half, "{} {}", z(58), z(61));
+        assert!((z(50) - FEET_HOME[0][2]).abs() < 1e-6 && (z(70) - FEET_HOME[0][2] - PRESS_LIFT_M).abs() < 1e-6);
     }
 
     #[test]

@@ -5,9 +5,9 @@
 //!   speed map gives the note's velocity; it then presses on (at most 0.08 rad) until it is
 //!   felt to touch, and returns to rest (time constant 30 ms). Notes closer than a full swing
 //!   start from where the beater is: the swing is shortened to 70 % of the gap.
-//! - Hi-hat: the top cymbal follows the left foot of the motion stage (its lift, 0 closed .. 1
-//!   open: the openness from CC4 or the notes, and the press of each pedal note, which closes
-//!   the hi-hat at the onset), interpolated between 60 fps frames. A hi-hat pedal note closes
+//! - Hi-hat: the top cymbal follows the motion stage's hi-hat openness (0 closed .. 1 open:
+//!   from CC4 or the notes, the data's own steps; the animated foot eases through them),
+//!   interpolated between 60 fps frames. A hi-hat pedal note closes
 //!   it at the onset whatever the pedal data says (an e-kit sends the note when its pedal
 //!   passes its own closing threshold, which CC4 alone does not show): the foot lifts it
 //!   open over 30 ms, shuts it at 0.4 of the stroke speed of its velocity, reaching it at the
@@ -18,7 +18,6 @@
 use crate::body::pedals::{PedalBodies, PedalTarget, HIHAT_PRESS_M, MIN_CLOSING_NOTE_FREE_MPS};
 use crate::kit::{Kit, CHICK_SPEED_SCALE};
 use crate::midi::{DrumEventKind, NoteMap, Performance, Zone};
-use crate::motion::feet::{FEET_HOME, PRESS_LIFT_M};
 use crate::motion::Motion;
 
 /// Longest the beater presses on after the onset without touching, seconds.
@@ -78,15 +77,17 @@ impl PedalTargets {
         let travel = bodies.pedals().hihat_travel_m;
         let chicks = pedal_notes(perf, map, "hihat", |v| CHICK_SPEED_SCALE * kit.strike.speed_for_velocity(v) / travel);
         // The target is in the pedal's units (0: pressed shut by the clutch's press, `touch`:
-        // the cymbals meet, 1 + `touch`: fully open). The foot's lift is the openness the
-        // pedal data asks, measured from the touch as the sound engine hears it (direct mode
-        // sends the same openness): closed (within the first 5 %) presses shut.
+        // the cymbals meet, 1 + `touch`: fully open). The lift is the openness the pedal data
+        // asks, measured from the touch as the sound engine hears it (direct mode sends the
+        // same openness): closed (within the first 5 %) presses shut. (The animated foot
+        // eases through the data's steps; the top cymbal follows the data, as a pedal
+        // sensor's readings follow the real pedal.)
         let touch = HIHAT_PRESS_M / travel;
         let mut lift: Vec<f32> = motion
             .frames
             .iter()
             .map(|f| {
-                let open = ((f.feet[0].pos[2] - FEET_HOME[0][2]) / PRESS_LIFT_M).clamp(0.0, 1.0);
+                let open = f.hihat_openness.clamp(0.0, 1.0);
                 open + touch * (open / CLOSED_BAND).min(1.0)
             })
             .collect();
@@ -194,6 +195,7 @@ mod tests {
     use super::*;
     use crate::body::model::DT_S;
     use crate::midi::DrumEvent;
+    use crate::motion::feet::{FEET_HOME, PRESS_LIFT_M};
     use crate::motion::{MotionFrame, Pose};
 
     /// A kick at 1.0 s and a hi-hat pedal note at 2.0 s, feet at rest, played by the pedals.
