@@ -314,16 +314,20 @@ pub fn note_frames() -> Vec<u64> {
 }
 
 /// First frame in `from..to` whose short-window energy is twice (3 dB above) the loudest window
-/// of the 30 ms before `from` (previous notes still ring), or None.
+/// of the 30 ms before `from` (previous notes still ring), or None. The energy is of the
+/// signal's first difference (a pre-emphasis, +6 dB an octave): a tom's low partials still
+/// ringing 250 ms after a hard hit held a closed hi-hat's onset to +2.5 dB over them in
+/// plain energy, where the ear hears the hat at once.
 pub fn onset(x: &[f32], from: usize, to: usize) -> Option<usize> {
     const W: usize = 64;
-    let energy = |end: usize| x[end.saturating_sub(W)..end].iter().map(|v| v * v).sum::<f32>();
+    let d = |n: usize| if n == 0 { x[0] } else { x[n] - x[n - 1] };
+    let energy = |end: usize| (end.saturating_sub(W)..end).map(|n| d(n) * d(n)).sum::<f32>();
     let before = (from.saturating_sub(RATE as usize * 30 / 1000)..=from).map(energy).fold(0.0, f32::max);
     let floor = W as f32 * 1e-3 * 1e-3;
     let threshold = 2.0 * before + floor;
     let end = (from + 1..to.min(x.len())).find(|&end| energy(end) > threshold)?;
     // The window holds at least one sample above the window's mean threshold: the first is the onset.
-    (end.saturating_sub(W).max(from)..end).find(|&n| x[n] * x[n] > threshold / W as f32).or(Some(end - 1))
+    (end.saturating_sub(W).max(from)..end).find(|&n| d(n) * d(n) > threshold / W as f32).or(Some(end - 1))
 }
 
 pub fn save_wav(path: &std::path::Path, x: &[f32]) {
