@@ -1,5 +1,5 @@
 //! Spectrograms of drumsim's kit beside recorded kits, one PNG per stroke: three panels
-//! left to right, drumsim (default kit), FluidR3 GM, The Black Pearl (a black panel where a
+//! left to right, drumsim (default kit, or `KIT=NAME|FILE`), FluidR3 GM, The Black Pearl (a black panel where a
 //! kit lacks the stroke). Each panel is 1.5 s from 10 ms before the hit (x) by 50 Hz to
 //! 20 kHz on a log scale (y, high at the top), 80 dB of level from black through red and
 //! yellow to white, velocity 110.
@@ -33,7 +33,10 @@ fn main() -> Result<()> {
     let kit = Kit::load(std::path::Path::new(&std::env::var("KIT").unwrap_or("default".into())))?;
     let strokes = audition::strokes(&kit);
     for name in STROKES {
-        let stroke = strokes.iter().find(|s| s.name == name).context("a stroke of the default kit")?;
+        let stroke = strokes
+            .iter()
+            .find(|s| s.name == name)
+            .with_context(|| format!("kit {} has no stroke {name}", kit.name))?;
         let (l, r, _) = audition::hit(&kit, stroke, VELOCITY, SECONDS, 0)?;
         let ours = mono(&l, &r);
         let mut panels = vec![spectrogram(&ours, audition::SAMPLE_RATE_HZ as f64)];

@@ -489,4 +489,34 @@ mod tests {
             }
         }
     }
+
+    /// A mode's patch factor is its shape's mean over the contact disc: the disc average,
+    /// summed numerically around an off-centre point of a tom, is the factor times the
+    /// shape at the point, for modes from the fundamental to ones shorter than the patch.
+    #[test]
+    fn a_modes_patch_factor_is_its_mean_over_the_contact_disc() {
+        let piece = Piece { contact_radius_m: 0.01, ..Kit::builtin_default().piece("tom1").unwrap().clone() };
+        let set = ModeSet::for_piece(&piece);
+        let (b, a) = (0.01, set.radius_m);
+        let (x0, y0) = (0.03, -0.02);
+        let (rings, spokes) = (40, 64);
+        for k in (0..set.modes.len()).step_by(37) {
+            let mode = &set.modes[k];
+            let at = |x: f64, y: f64| shape(mode, (x * x + y * y).sqrt() / a, y.atan2(x));
+            // Midpoint rule in r (weight r dr) and theta over the disc.
+            let mut sum = 0.0;
+            for i in 0..rings {
+                let r = b * (i as f64 + 0.5) / rings as f64;
+                for j in 0..spokes {
+                    let t = 2.0 * PI * j as f64 / spokes as f64;
+                    sum += at(x0 + r * t.cos(), y0 + r * t.sin()) * r;
+                }
+            }
+            let mean = sum * (b / rings as f64) * (2.0 * PI / spokes as f64) / (PI * b * b);
+            let want = mode.patch * at(x0, y0);
+            assert!((mean - want).abs() < 2e-3, "mode {k} ({:.0} Hz): mean {mean}, patch x shape {want}", mode.freq_hz);
+        }
+        assert!(set.modes.iter().any(|m| m.patch < 0.2), "some modes are shorter than a 1 cm patch");
+        assert_eq!(ModeSet::for_piece(Kit::builtin_default().piece("ride").unwrap()).modes[5].patch, 1.0);
+    }
 }
