@@ -13,6 +13,10 @@ mod jack_rig;
 use drumsim::interaction::{decode_timed, ContactMessage, Message};
 use drumsim::midi::{read_file, DrumEventKind, NoteMap, ReadOptions};
 use drumsim::perform::matching::{match_contacts, onsets, DOUBLE_TRIGGER_S, HIT_WINDOW_S};
+
+/// The recorded-audio test leaves out notes and strikes this long before and after an xrun.
+const XRUN_BEFORE_S: f64 = 0.05;
+const XRUN_AFTER_S: f64 = 0.3;
 use jack_rig::*;
 use std::net::UdpSocket;
 use std::path::Path;
@@ -217,7 +221,7 @@ fn the_take_played_live_sounds_in_the_recorded_audio_of_each_piece_lookahead_aft
         assert!(start.elapsed() < Duration::from_secs(120), "JACK is not running the test client");
         thread::sleep(Duration::from_millis(100));
     }
-    let (_, _, player) = client.deactivate().unwrap();
+    let (_, xruns, player) = client.deactivate().unwrap();
     let status = live.wait_exit(Duration::from_secs(30));
     assert!(status.success(), "drumsim live failed ({status}):\n{}", live.stderr());
 
@@ -229,6 +233,20 @@ fn the_take_played_live_sounds_in_the_recorded_audio_of_each_piece_lookahead_aft
         .iter()
         .map(|t| stem_onsets(t, RATE as f64).into_iter().map(|s| s - late - FIRST_NOTE as f64 / RATE as f64).collect())
         .collect();
+    // The xruns the test client was told of, in the notes' time (as the strikes). A cycle
+    // some client missed on this shared, non-realtime server costs drumsim's audio clock a
+    // period and a re-lock: its strikes then sound a period or more off for up to ~250 ms
+    // (measured under two busy loops: every note missed and every strike without a note lay
+    // 0-200 ms after an xrun). Notes and strikes there are left out and counted.
+    let mut xrun_s: Vec<f64> = xruns
+        .0
+        .iter()
+        .filter_map(|&w| player.frame_at(w))
+        .map(|f| f as f64 / RATE as f64 - late - FIRST_NOTE as f64 / RATE as f64)
+        .collect();
+    // JACK tells each client of an xrun, and one late cycle often brings several in a period.
+    xrun_s.dedup_by(|a, b| (*a - *b).abs() < 0.01);
+    let disturbed = |t: f64| xrun_s.iter().any(|x| (-XRUN_BEFORE_S..=XRUN_AFTER_S).contains(&(t - x)));
     // The notes, one sound per piece where notes on it are within the planner's merge window
     // (an e-kit's double triggers; a hi-hat chick under a stick note).
     let mut notes: Vec<_> = onsets(&perf, &map).into_iter().filter(|o| o.time_s < PLAYED_S).collect();
@@ -243,11 +261,15 @@ fn the_take_played_live_sounds_in_the_recorded_audio_of_each_piece_lookahead_aft
     // A piece's sound is in its own channel or its hoop's (a cross-stick, a rim shot).
     let mut heard: Vec<Vec<usize>> = vec![Vec::new(); sounds.len()];
     let mut spurious = 0;
+    let mut extra = Vec::new();
     let mut offsets = Vec::new();
     let mut strikes = 0;
     for (k, piece) in kit.pieces.iter().enumerate() {
         let of = piece.id.strip_suffix("_rim").unwrap_or(&piece.id);
         for &t in found[k].iter().filter(|t| (-0.1..PLAYED_S + 0.05).contains(*t)) {
+            if disturbed(t) {
+                continue;
+            }
             strikes += 1;
             let best = (0..sounds.len())
                 .filter(|&g| sounds[g].1 == of && (sounds[g].0 - t).abs() <= HIT_WINDOW_S && !heard[g].contains(&k))
@@ -259,25 +281,45 @@ fn the_take_played_live_sounds_in_the_recorded_audio_of_each_piece_lookahead_aft
                     }
                     heard[g].push(k);
                 }
-                None => spurious += 1,
+                None => {
+                    spurious += 1;
+                    extra.push(format!("{} {t:.3}", piece.id));
+                }
             }
         }
     }
-    let sounded: usize = sounds.iter().zip(&heard).filter(|(_, h)| !h.is_empty()).map(|(s, _)| s.2.len()).sum();
-    let recall = sounded as f64 / notes.len() as f64;
+    let judged: Vec<bool> = sounds.iter().map(|s| !disturbed(s.0)).collect();
+    let judged_notes: usize = sounds.iter().zip(&judged).filter(|(_, j)| **j).map(|(s, _)| s.2.len()).sum();
+    let sounded: usize = sounds
+        .iter()
+        .zip(&heard)
+        .zip(&judged)
+        .filter(|((_, h), j)| **j && !h.is_empty())
+        .map(|((s, _), _)| s.2.len())
+        .sum();
+    let recall = sounded as f64 / judged_notes.max(1) as f64;
     let precision = 1.0 - spurious as f64 / strikes.max(1) as f64;
     let n = offsets.len().max(1) as f64;
     let mean = offsets.iter().sum::<f64>() / n;
     let sd = (offsets.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / n).sqrt();
-    let missed: Vec<String> =
-        sounds.iter().zip(&heard).filter(|(_, h)| h.is_empty()).map(|(s, _)| format!("{} {:.3}", s.1, s.0)).collect();
+    let missed: Vec<String> = sounds
+        .iter()
+        .zip(&heard)
+        .zip(&judged)
+        .filter(|((_, h), j)| **j && h.is_empty())
+        .map(|((s, _), _)| format!("{} {:.3}", s.1, s.0))
+        .collect();
     let stderr = live.stderr();
     let body = stderr.lines().find(|l| l.contains("body:")).unwrap_or_default().to_string();
     println!(
-        "{TAKE}, first {PLAYED_S} s, in the recorded audio: {} notes ({} sounds), {strikes} strikes found; recall \
-         {:.2} %, precision {:.2} %; strike - note - lookahead: mean {:+.2} ms, sd {:.2} ms\nmissed: {missed:?}\n{body}",
+        "{TAKE}, first {PLAYED_S} s, in the recorded audio: {} notes ({} sounds), {} judged (the rest within \
+         {XRUN_BEFORE_S} s before to {XRUN_AFTER_S} s after one of {} xruns at {xrun_s:.2?}), {strikes} strikes \
+         found; recall {:.2} %, precision {:.2} %; strike - note - lookahead: mean {:+.2} ms, sd {:.2} ms\nmissed: \
+         {missed:?}\nno note: {extra:?}\n{body}",
         notes.len(),
         sounds.len(),
+        judged_notes,
+        xrun_s.len(),
         100.0 * recall,
         100.0 * precision,
         mean * 1e3,
@@ -291,6 +333,9 @@ fn the_take_played_live_sounds_in_the_recorded_audio_of_each_piece_lookahead_aft
     // The issue's targets. Measured (README): recall 99.63-99.81 %, precision 99.44-100 %,
     // mean +0.05 to +0.09 ms, sd 1.24-1.32 ms; the notes missed are a hi-hat foot closing a
     // ringing open hat and the soft stroke 33 ms after it.
+    // Xruns are this machine's, not drumsim's (drumsim counts them too); the judged notes
+    // must still be nine in ten.
+    assert!(judged_notes * 10 >= notes.len() * 9, "{judged_notes} of {} notes clear of xruns", notes.len());
     assert!(recall >= 0.99 && precision >= 0.99, "recall {recall:.3}, precision {precision:.3}");
     assert!(mean.abs() <= 0.002 && sd <= 0.003, "strike - note - lookahead: mean {mean:+.4} s, sd {sd:.4} s");
 }

@@ -1,7 +1,9 @@
 //! What the JACK end-to-end tests share: a private jackd, the drumsim binary with its stderr
 //! read line by line, a test client that plays MIDI and records audio, and the onset finder.
 
-use jack::{AudioIn, Client, ClientOptions, Control, MidiOut, Port, ProcessHandler, ProcessScope, RawMidi};
+use jack::{
+    AudioIn, Client, ClientOptions, Control, MidiOut, NotificationHandler, Port, ProcessHandler, ProcessScope, RawMidi,
+};
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -241,12 +243,33 @@ impl ProcessHandler for Player {
     }
 }
 
+/// The wall times (Unix seconds) of the xruns JACK reported to the test client: a cycle on this
+/// shared, non-realtime dummy server that some client did not finish in time.
+#[derive(Default)]
+pub struct Xruns(pub Vec<f64>);
+
+impl NotificationHandler for Xruns {
+    fn xrun(&mut self, _: &Client) -> Control {
+        let now = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+        self.0.push(now.as_secs_f64());
+        Control::Continue
+    }
+}
+
+impl Player {
+    /// The frame of the test client's clock at Unix time `t` (the period whose callback ran
+    /// last before it), or None before the first armed period.
+    pub fn frame_at(&self, t: f64) -> Option<u64> {
+        self.clock.iter().take_while(|(_, w)| *w <= t).last().map(|(f, _)| *f)
+    }
+}
+
 /// A test client with a MIDI output and two audio inputs, activated.
 pub fn player(
     name: &str,
     schedule: Vec<(u64, [u8; 3])>,
     record_frames: usize,
-) -> (jack::AsyncClient<(), Player>, Arc<AtomicBool>, Arc<AtomicU64>) {
+) -> (jack::AsyncClient<Xruns, Player>, Arc<AtomicBool>, Arc<AtomicU64>) {
     player_with_tracks(name, schedule, record_frames, 0)
 }
 
@@ -256,7 +279,7 @@ pub fn player_with_tracks(
     schedule: Vec<(u64, [u8; 3])>,
     record_frames: usize,
     tracks: usize,
-) -> (jack::AsyncClient<(), Player>, Arc<AtomicBool>, Arc<AtomicU64>) {
+) -> (jack::AsyncClient<Xruns, Player>, Arc<AtomicBool>, Arc<AtomicU64>) {
     let (client, _) = Client::new(name, ClientOptions::NO_START_SERVER).unwrap();
     let track_inputs =
         (0..tracks).map(|i| client.register_port(&format!("in_{}", i + 3), AudioIn::default()).unwrap()).collect();
@@ -279,7 +302,7 @@ pub fn player_with_tracks(
         clock: Vec::with_capacity(record_frames / PERIOD as usize + 16),
         progress: progress.clone(),
     };
-    (client.activate_async((), p).unwrap(), armed, progress)
+    (client.activate_async(Xruns::default(), p).unwrap(), armed, progress)
 }
 
 /// (note, velocity): every kind of piece, loud after long-ringing cymbals.
