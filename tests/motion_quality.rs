@@ -83,8 +83,10 @@ fn holds(kit: &Kit) {
     // Nor yet no stick in the kit, but the tip hovering over a drum between slow strokes on
     // it: frames with a stick, hand or arm over 1 cm inside a drum were 644 of 47,122
     // (default kit) and 865 (rearranged) with the tip sinking through the head between ghost
-    // notes 0.6-0.9 s apart; 38 and 186 now. Sticks through a cymbal by over 1 cm: 110 and
-    // 92 frames.
+    // notes 0.6-0.9 s apart; 38 and 186 now. Sticks through a cymbal by over 1 cm: 108 and
+    // 86 frames, nearly all an idle stick resting 2-16 mm under a cymbal's edge (a left
+    // hand after a crash stroke, its next note 9 s on); 12 and 13 with such a stick lifted
+    // over the plate (`motion::plate_clear`).
     assert!(
         q.frames_arm_in_kit * 100 <= q.frames,
         "{} of {} frames with an arm in a drum",
@@ -92,7 +94,7 @@ fn holds(kit: &Kit) {
         q.frames
     );
     assert!(
-        q.frames_stick_through_cymbal * 200 <= q.frames,
+        q.frames_stick_through_cymbal * 2000 <= q.frames,
         "{} of {} frames with a stick through a cymbal",
         q.frames_stick_through_cymbal,
         q.frames

@@ -10,6 +10,7 @@ pub mod humanoid;
 pub mod notes;
 pub mod pipeline;
 pub mod plan;
+pub mod plate_clear;
 pub mod proxies;
 pub mod rig;
 pub mod shells;

@@ -211,8 +211,21 @@ fn planned_with(
     let animated = match upper {
         Some((library, index)) => {
             let smoothed = plan::smooth::smooth_jumps(predicted);
-            let hands =
+            let mut hands =
                 plan::plan_hands(&smoothed, FPS, &notes, &assignment, StrokeSettings::default()).sample(FPS, frames);
+            let strikes: [Vec<usize>; 2] = std::array::from_fn(|side| {
+                notes
+                    .iter()
+                    .zip(&assignment.hands)
+                    .filter(|(_, h)| **h == Some(side))
+                    .map(|(n, _)| (n.time_s * FPS).round().max(0.0) as usize)
+                    .collect()
+            });
+            super::plate_clear::lift_off_plates(
+                &mut hands,
+                &super::plate_clear::plates(kit),
+                [&strikes[0], &strikes[1]],
+            );
             let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
             let (mut upper, retrieval) = upper::retrieve_indexed(library, index, &masks, &MatchSettings::default())?;
             upper::turn::turn_toward_hands(&mut upper, &hands);
