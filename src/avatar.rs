@@ -325,6 +325,8 @@ impl Poser {
         let mut unity = vmc.as_ref().map(|(h, _, _)| h.empty_pose());
         let mut text = String::with_capacity(4096);
         let mut carry = body_ik::Carry { knee: self.knees, ..Default::default() };
+        // The pose shown before, for `limit_turns` (no bone turning over 45 degrees a frame).
+        let mut shown_before: Option<crate::motion::rig::BodyPose> = None;
         let mut played = Played::default();
         while !stop.load(Relaxed) {
             let Some((i, skipped)) = pacer.next_frame(u64::MAX) else { return };
@@ -343,7 +345,14 @@ impl Poser {
                 played.take(feed, shown);
                 played.show(shown, &mut frame);
             }
-            let pose = body_ik::solve_after(&self.rig, &frame, &mut carry);
+            let mut pose = body_ik::solve_after(&self.rig, &frame, &mut carry);
+            match shown_before.as_mut() {
+                Some(before) => {
+                    body_ik::limit_turns(&self.rig, &mut pose, before);
+                    before.clone_from(&pose);
+                }
+                None => shown_before = Some(pose.clone()),
+            }
             if let (Some((humanoid, encoder, sender)), Some(unity)) = (vmc.as_mut(), unity.as_mut()) {
                 let world = self.rig.world(&pose);
                 humanoid.pose_into(&world[0].0, |i| world[i].1, &mut scratch, unity);

@@ -63,7 +63,7 @@ pub const MAX_BONE_TURN_RAD: f32 = 44.0 * std::f32::consts::PI / 180.0;
 /// Hold each bone of `pose` within [`MAX_BONE_TURN_RAD`] of `before`, parents first; a hand
 /// whose forearm was held back keeps its world rotation (its stick's direction) as far as
 /// its own limit allows. The wrist, and so the stick, then lags its target for that frame.
-fn limit_turns(rig: &Rig, pose: &mut BodyPose, before: &BodyPose) {
+pub fn limit_turns(rig: &Rig, pose: &mut BodyPose, before: &BodyPose) {
     if pose.local.iter().zip(&before.local).all(|(q, b)| q.angle_to(b) <= MAX_BONE_TURN_RAD) {
         return;
     }
