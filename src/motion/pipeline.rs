@@ -221,9 +221,10 @@ fn planned_with(
                     .map(|(n, _)| (n.time_s * FPS).round().max(0.0) as usize)
                     .collect()
             });
-            super::plate_clear::lift_off_plates(
+            super::kit_clear::lift_clear(
                 &mut hands,
-                &super::plate_clear::plates(kit),
+                &super::kit_clear::plates(kit),
+                &super::shells::shells(kit),
                 [&strikes[0], &strikes[1]],
             );
             let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();

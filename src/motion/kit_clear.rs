@@ -1,24 +1,31 @@
-//! Sticks lifted off the cymbals they would rest under (issue 16).
+//! Sticks lifted out of the drums and off the cymbals they would rest under (issue 16).
 //!
 //! Between strokes the stick follows the hand model's prediction, which knows nothing of
 //! this kit's cymbals: an idle left hand after a crash stroke (the next note 9 s later)
 //! rested with its tip 2-16 mm under the crash's plane by the edge and its shaft through
 //! the plate, on and off for seconds (96 of the 108 frames with a stick through a cymbal
-//! over 21 validation takes). [`lift_off_plates`] raises such a stick along the plate's
-//! normal until its tip is [`CLEAR_M`] over the plane: the stick hovers over the cymbal's
-//! edge as a resting hand does. The lift is eased in and out over [`EASE_FRAMES`] either
-//! side of where it is needed, and held off the frames where the hand strikes, so every
-//! strike stays where it was planned.
+//! over 21 validation takes). And on its way from one drum to another a tip may dip through
+//! a head (a right hand 3-4.6 cm into the floor tom 0.14 s after striking it, on its way to
+//! the snare). [`lift_clear`] raises such a stick along the plate's or head's normal until
+//! its tip is [`CLEAR_M`] over the plane: the stick hovers over the cymbal's edge as a
+//! resting hand does, and passes over the drum. The lift is eased in and out over
+//! [`EASE_FRAMES`] either side of where it is needed, and held off the frames where the
+//! hand strikes, so every strike stays where it was planned.
 
 use super::proxies::{GRIP_TO_BUTT_M, STICK_R};
+use super::shells::Shell;
 use super::track::Pose;
 use crate::kit::{Kit, PieceKind};
 use nalgebra::Vector3;
 
 type V3 = Vector3<f32>;
 
-/// A tip deeper than this under a plate is playing what is below it and is left alone, m.
+/// A tip deeper than this under a plate is playing what is below it and is left alone, m;
+/// so is a stick deeper in a drum.
 pub const DEPTH_M: f32 = 0.05;
+/// How far a tip may be under a plane before it is lifted, m: with the stick's radius, the
+/// 1 cm that `eval::motion_quality` allows (a strike's tip lies on the plane).
+pub const TOLERANCE_M: f32 = 0.01 - STICK_R;
 /// How far over the plate's plane a lifted tip's centre is, m: the stick's radius and 4 mm.
 pub const CLEAR_M: f32 = STICK_R + 0.004;
 /// A shaft crossing the plane this far outside the plate's edge still counts, m.
@@ -44,13 +51,13 @@ pub fn plates(kit: &Kit) -> Vec<Plate> {
 }
 
 /// How far `hand`'s stick must rise along `plate`'s normal to clear it: its tip just under
-/// the plane (within [`DEPTH_M`]), its butt over it, and the shaft crossing the plane inside
+/// the plane (over [`TOLERANCE_M`], within [`DEPTH_M`]), its butt over it, and the shaft crossing the plane inside
 /// the edge (and [`EDGE_CLEARANCE_M`]); otherwise 0.
 pub fn lift_needed(hand: &Pose, plate: &Plate) -> f32 {
     let tip = V3::from(hand.stick_tip());
     let butt = V3::from(hand.pos) - hand.rotation() * V3::y() * GRIP_TO_BUTT_M;
     let (ht, hb) = ((tip - plate.centre).dot(&plate.normal), (butt - plate.centre).dot(&plate.normal));
-    if !((-DEPTH_M..0.0).contains(&ht) && hb > 0.0) {
+    if !((-DEPTH_M..-TOLERANCE_M).contains(&ht) && hb > 0.0) {
         return 0.0;
     }
     let crossing = tip + (butt - tip) * (ht / (ht - hb));
@@ -62,15 +69,35 @@ pub fn lift_needed(hand: &Pose, plate: &Plate) -> f32 {
     CLEAR_M - ht
 }
 
+/// How far `hand`'s stick must rise along `drum`'s normal to come out of it: the most any
+/// of nine points from butt to tip lies under the head (over [`TOLERANCE_M`], within
+/// [`DEPTH_M`]) inside the shell's radius, to [`CLEAR_M`] over it; otherwise 0.
+pub fn lift_out_of(hand: &Pose, drum: &Shell) -> f32 {
+    let tip = V3::from(hand.stick_tip());
+    let butt = V3::from(hand.pos) - hand.rotation() * V3::y() * GRIP_TO_BUTT_M;
+    (0..=8)
+        .map(|i| {
+            let p = butt + (tip - butt) * (i as f32 / 8.0);
+            let h = (p - drum.center).dot(&drum.normal);
+            let radial = ((p - drum.center) - drum.normal * h).norm();
+            if (-DEPTH_M..-TOLERANCE_M).contains(&h) && radial < drum.radius_m + STICK_R {
+                CLEAR_M - h
+            } else {
+                0.0
+            }
+        })
+        .fold(0.0, f32::max)
+}
+
 /// Minimum-jerk ease from 0 at `u` <= 0 to 1 at `u` >= 1.
 fn ease(u: f32) -> f32 {
     let u = u.clamp(0.0, 1.0);
     u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
 }
 
-/// Lift each hand's stick off the plates it rests under (see the module's text). `strikes`:
-/// each hand's strike frames, where nothing moves.
-pub fn lift_off_plates(hands: &mut [[Pose; 2]], plates: &[Plate], strikes: [&[usize]; 2]) {
+/// Lift each hand's stick off the plates it rests under and out of the drums (see the
+/// module's text). `strikes`: each hand's strike frames, where nothing moves.
+pub fn lift_clear(hands: &mut [[Pose; 2]], plates: &[Plate], drums: &[Shell], strikes: [&[usize]; 2]) {
     let n = hands.len();
     for side in 0..2 {
         // How far each frame is from this hand's nearest strike, in frames.
@@ -81,8 +108,16 @@ pub fn lift_off_plates(hands: &mut [[Pose; 2]], plates: &[Plate], strikes: [&[us
                 *d = (*d).min(f.abs_diff(s));
             }
         }
-        for plate in plates {
-            let need: Vec<f32> = hands.iter().map(|h| lift_needed(&h[side], plate)).collect();
+        let solids = plates
+            .iter()
+            .map(|p| (p.normal, Box::new(move |h: &Pose| lift_needed(h, p)) as Box<dyn Fn(&Pose) -> f32>))
+            .chain(
+                drums
+                    .iter()
+                    .map(|d| (d.normal, Box::new(move |h: &Pose| lift_out_of(h, d)) as Box<dyn Fn(&Pose) -> f32>)),
+            );
+        for (normal, needed) in solids {
+            let need: Vec<f32> = hands.iter().map(|h| needed(&h[side])).collect();
             if need.iter().all(|&l| l == 0.0) {
                 continue;
             }
@@ -100,7 +135,7 @@ pub fn lift_off_plates(hands: &mut [[Pose; 2]], plates: &[Plate], strikes: [&[us
                 if lift > 0.0 {
                     let p = &mut hands[f][side].pos;
                     for (k, v) in p.iter_mut().enumerate() {
-                        *v += plate.normal[k] * lift;
+                        *v += normal[k] * lift;
                     }
                 }
             }
@@ -142,6 +177,29 @@ mod tests {
     }
 
     #[test]
+    fn a_stick_dipping_through_a_drums_head_needs_lifting_out_and_a_strike_on_it_does_not() {
+        let tom = Shell {
+            id: "floor_tom".into(),
+            center: V3::new(0.0, 0.0, 0.6),
+            normal: V3::z(),
+            radius_m: 0.2,
+            depth_m: 0.4,
+        };
+        // The tip 3 cm under the head: up 3 cm and CLEAR_M.
+        assert!((lift_out_of(&stick_to([0.05, 0.0, 0.57]), &tom) - (CLEAR_M + 0.03)).abs() < 1e-4);
+        // On the head (a strike), or 1 mm under it.
+        assert_eq!(lift_out_of(&stick_to([0.05, 0.0, 0.6]), &tom), 0.0);
+        assert_eq!(lift_out_of(&stick_to([0.05, 0.0, 0.599]), &tom), 0.0);
+        // Beside the drum at that height.
+        assert_eq!(lift_out_of(&stick_to([0.35, 0.0, 0.57]), &tom), 0.0);
+        // Lifted, it is out.
+        let mut hands = vec![[stick_to([0.05, 0.0, 0.57]), stick_to([0.5, 0.0, 1.0])]; 20];
+        lift_clear(&mut hands, &[], std::slice::from_ref(&tom), [&[], &[]]);
+        assert!(hands.iter().all(|h| lift_out_of(&h[0], &tom) == 0.0
+            && tom.depth_of(V3::from(h[0].stick_tip()), V3::from(h[0].pos), STICK_R) < 0.0));
+    }
+
+    #[test]
     fn a_resting_stick_is_lifted_clear_eased_in_and_out_and_no_strike_moves() {
         let p = crash();
         // 60 frames: a strike on the plate at frame 5, then the tip sags 8 mm under it
@@ -159,7 +217,7 @@ mod tests {
             })
             .collect();
         let before = hands.clone();
-        lift_off_plates(&mut hands, &[p], [&[5, 50], &[]]);
+        lift_clear(&mut hands, &[p], &[], [&[5, 50], &[]]);
         for (f, (h, b)) in hands.iter().zip(&before).enumerate() {
             assert_eq!(lift_needed(&h[0], &p), 0.0, "frame {f}");
             assert_eq!(h[1], b[1], "the other hand, frame {f}");
