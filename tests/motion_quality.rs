@@ -74,17 +74,22 @@ fn holds(kit: &Kit) {
     assert!(q.max_turn_deg <= 45.0, "{:.0} degrees: {}", q.max_turn_deg, q.max_turn_at);
     assert_eq!(q.turns_over_45, 0, "bone turns over 45 degrees: {:?}", q.turns_over_45_by_bone);
     // Not yet the 6 cm: wrists moving over 10 cm in a frame were 145 (default kit)
-    // and 164 (rearranged) before any smoothing, 9 and 22 with 1.5 frames, 4 and 7 now.
+    // and 164 (rearranged) before any smoothing, 9 and 22 with 1.5 frames, 4 and 5 now; over
+    // 6 cm 159 and 353 before the grips moved at most 4 cm a frame with the stick turning
+    // about its tip (`stick_clear::slew_grips`), 108 and 192 now.
     assert!(q.wrist_steps_over_10cm <= 12, "{} wrist steps over 10 cm", q.wrist_steps_over_10cm);
+    assert!(q.wrist_steps_over_6cm <= 250, "{} wrist steps over 6 cm", q.wrist_steps_over_6cm);
     // Nor yet no arm in the body, but hands, forearms and sticks turned out of it about the
     // sticks' tips: frames with one over 1 cm inside were 31,546 of 47,122 (default kit),
     // 451 with hands and sticks only (3,491 on the rearranged kit), 375 (1,145) with the
-    // forearms too, each stick turned at most 30 degrees.
+    // forearms too, each stick turned at most 30 degrees; 358 (1,102) with the grips' 4 cm
+    // a frame.
     // Nor yet no stick in the kit, but the tip hovering over a drum between slow strokes on
     // it: frames with a stick, hand or arm over 1 cm inside a drum were 644 of 47,122
     // (default kit) and 865 (rearranged) with the tip sinking through the head between ghost
     // notes 0.6-0.9 s apart; 38 and 181, every one a stick 1-4.6 cm into a head on its way
-    // to another drum; 11 and 19 with such a stick lifted out (`motion::kit_clear`). Sticks
+    // to another drum; 11 and 19 with such a stick lifted out (`motion::kit_clear`), 8 and
+    // 19 with the grips' 4 cm a frame. Sticks
     // through a cymbal by over 1 cm: 108 and 86 frames, nearly all an idle stick resting
     // 2-16 mm under a cymbal's edge (a left hand after a crash stroke, its next note 9 s
     // on); 13 and 13 with such a stick lifted over the plate.

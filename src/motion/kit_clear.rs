@@ -69,6 +69,19 @@ pub fn lift_needed(hand: &Pose, plate: &Plate) -> f32 {
     CLEAR_M - ht
 }
 
+/// True when `hand`'s stick, butt to tip, crosses `plate`'s plane inside its edge (and
+/// [`EDGE_CLEARANCE_M`]).
+pub fn crosses(hand: &Pose, plate: &Plate) -> bool {
+    let tip = V3::from(hand.stick_tip());
+    let butt = V3::from(hand.pos) - hand.rotation() * V3::y() * GRIP_TO_BUTT_M;
+    let (ht, hb) = ((tip - plate.centre).dot(&plate.normal), (butt - plate.centre).dot(&plate.normal));
+    if ht * hb >= 0.0 {
+        return false;
+    }
+    let d = tip + (butt - tip) * (ht / (ht - hb)) - plate.centre;
+    (d - plate.normal * d.dot(&plate.normal)).norm() < plate.radius_m + EDGE_CLEARANCE_M
+}
+
 /// How far `hand`'s stick must rise along `drum`'s normal to come out of it: the most any
 /// of nine points from butt to tip lies under the head (over [`TOLERANCE_M`], within
 /// [`DEPTH_M`]) inside the shell's radius, to [`CLEAR_M`] over it; otherwise 0.

@@ -221,12 +221,12 @@ fn planned_with(
                     .map(|(n, _)| (n.time_s * FPS).round().max(0.0) as usize)
                     .collect()
             });
-            super::kit_clear::lift_clear(
-                &mut hands,
-                &super::kit_clear::plates(kit),
-                &super::shells::shells(kit),
-                [&strikes[0], &strikes[1]],
-            );
+            // Grips no faster than a wrist moves (the stick turns about its tip instead), and
+            // sticks out of the drums and off the cymbals.
+            let plates = super::kit_clear::plates(kit);
+            let blocked = |h: &Pose| plates.iter().any(|p| super::kit_clear::crosses(h, p));
+            super::stick_clear::slew_grips(&mut hands, super::stick_clear::MAX_GRIP_STEP_M, &blocked);
+            super::kit_clear::lift_clear(&mut hands, &plates, &super::shells::shells(kit), [&strikes[0], &strikes[1]]);
             let masks: Vec<u16> = roll.frames.iter().map(upper::library::mask).collect();
             let (mut upper, retrieval) = upper::retrieve_indexed(library, index, &masks, &MatchSettings::default())?;
             upper::turn::turn_toward_hands(&mut upper, &hands);
