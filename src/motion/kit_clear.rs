@@ -50,12 +50,16 @@ pub fn plates(kit: &Kit) -> Vec<Plate> {
         .collect()
 }
 
+/// A stick's tip and butt.
+fn ends(hand: &Pose) -> (V3, V3) {
+    (V3::from(hand.stick_tip()), V3::from(hand.pos) - hand.rotation() * V3::y() * GRIP_TO_BUTT_M)
+}
+
 /// How far `hand`'s stick must rise along `plate`'s normal to clear it: its tip just under
-/// the plane (over [`TOLERANCE_M`], within [`DEPTH_M`]), its butt over it, and the shaft crossing the plane inside
-/// the edge (and [`EDGE_CLEARANCE_M`]); otherwise 0.
+/// the plane (over [`TOLERANCE_M`], within [`DEPTH_M`]), its butt over it, and the shaft
+/// crossing the plane inside the edge (and [`EDGE_CLEARANCE_M`]); otherwise 0.
 pub fn lift_needed(hand: &Pose, plate: &Plate) -> f32 {
-    let tip = V3::from(hand.stick_tip());
-    let butt = V3::from(hand.pos) - hand.rotation() * V3::y() * GRIP_TO_BUTT_M;
+    let (tip, butt) = ends(hand);
     let (ht, hb) = ((tip - plate.centre).dot(&plate.normal), (butt - plate.centre).dot(&plate.normal));
     if !((-DEPTH_M..-TOLERANCE_M).contains(&ht) && hb > 0.0) {
         return 0.0;
@@ -72,8 +76,7 @@ pub fn lift_needed(hand: &Pose, plate: &Plate) -> f32 {
 /// True when `hand`'s stick, butt to tip, crosses `plate`'s plane inside its edge (and
 /// [`EDGE_CLEARANCE_M`]).
 pub fn crosses(hand: &Pose, plate: &Plate) -> bool {
-    let tip = V3::from(hand.stick_tip());
-    let butt = V3::from(hand.pos) - hand.rotation() * V3::y() * GRIP_TO_BUTT_M;
+    let (tip, butt) = ends(hand);
     let (ht, hb) = ((tip - plate.centre).dot(&plate.normal), (butt - plate.centre).dot(&plate.normal));
     if ht * hb >= 0.0 {
         return false;
@@ -86,8 +89,7 @@ pub fn crosses(hand: &Pose, plate: &Plate) -> bool {
 /// of nine points from butt to tip lies under the head (over [`TOLERANCE_M`], within
 /// [`DEPTH_M`]) inside the shell's radius, to [`CLEAR_M`] over it; otherwise 0.
 pub fn lift_out_of(hand: &Pose, drum: &Shell) -> f32 {
-    let tip = V3::from(hand.stick_tip());
-    let butt = V3::from(hand.pos) - hand.rotation() * V3::y() * GRIP_TO_BUTT_M;
+    let (tip, butt) = ends(hand);
     (0..=8)
         .map(|i| {
             let p = butt + (tip - butt) * (i as f32 / 8.0);
