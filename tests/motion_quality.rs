@@ -89,7 +89,7 @@ fn holds(kit: &Kit) {
     // (default kit) and 865 (rearranged) with the tip sinking through the head between ghost
     // notes 0.6-0.9 s apart; 38 and 181, every one a stick 1-4.6 cm into a head on its way
     // to another drum; 11 and 19 with such a stick lifted out (`motion::kit_clear`), 8 and
-    // 19 with the grips' 4 cm a frame. Sticks
+    // 18 with the grips' 4 cm a frame. Sticks
     // through a cymbal by over 1 cm: 108 and 86 frames, nearly all an idle stick resting
     // 2-16 mm under a cymbal's edge (a left hand after a crash stroke, its next note 9 s
     // on); 13 and 13 with such a stick lifted over the plate.

@@ -55,34 +55,34 @@ fn ends(hand: &Pose) -> (V3, V3) {
     (V3::from(hand.stick_tip()), V3::from(hand.pos) - hand.rotation() * V3::y() * GRIP_TO_BUTT_M)
 }
 
+/// Where `hand`'s stick, butt to tip, crosses `plate`'s plane: the tip's height over the
+/// plane and the crossing's distance from the plate's axis; None when it does not cross.
+fn crossing(hand: &Pose, plate: &Plate) -> Option<(f32, f32)> {
+    let (tip, butt) = ends(hand);
+    let (ht, hb) = ((tip - plate.centre).dot(&plate.normal), (butt - plate.centre).dot(&plate.normal));
+    if ht * hb >= 0.0 {
+        return None;
+    }
+    let d = tip + (butt - tip) * (ht / (ht - hb)) - plate.centre;
+    Some((ht, (d - plate.normal * d.dot(&plate.normal)).norm()))
+}
+
 /// How far `hand`'s stick must rise along `plate`'s normal to clear it: its tip just under
 /// the plane (over [`TOLERANCE_M`], within [`DEPTH_M`]), its butt over it, and the shaft
 /// crossing the plane inside the edge (and [`EDGE_CLEARANCE_M`]); otherwise 0.
 pub fn lift_needed(hand: &Pose, plate: &Plate) -> f32 {
-    let (tip, butt) = ends(hand);
-    let (ht, hb) = ((tip - plate.centre).dot(&plate.normal), (butt - plate.centre).dot(&plate.normal));
-    if !((-DEPTH_M..-TOLERANCE_M).contains(&ht) && hb > 0.0) {
-        return 0.0;
+    match crossing(hand, plate) {
+        Some((ht, radial)) if (-DEPTH_M..-TOLERANCE_M).contains(&ht) && radial < plate.radius_m + EDGE_CLEARANCE_M => {
+            CLEAR_M - ht
+        }
+        _ => 0.0,
     }
-    let crossing = tip + (butt - tip) * (ht / (ht - hb));
-    let d = crossing - plate.centre;
-    let radial = (d - plate.normal * d.dot(&plate.normal)).norm();
-    if radial >= plate.radius_m + EDGE_CLEARANCE_M {
-        return 0.0;
-    }
-    CLEAR_M - ht
 }
 
 /// True when `hand`'s stick, butt to tip, crosses `plate`'s plane inside its edge (and
 /// [`EDGE_CLEARANCE_M`]).
 pub fn crosses(hand: &Pose, plate: &Plate) -> bool {
-    let (tip, butt) = ends(hand);
-    let (ht, hb) = ((tip - plate.centre).dot(&plate.normal), (butt - plate.centre).dot(&plate.normal));
-    if ht * hb >= 0.0 {
-        return false;
-    }
-    let d = tip + (butt - tip) * (ht / (ht - hb)) - plate.centre;
-    (d - plate.normal * d.dot(&plate.normal)).norm() < plate.radius_m + EDGE_CLEARANCE_M
+    crossing(hand, plate).is_some_and(|(_, radial)| radial < plate.radius_m + EDGE_CLEARANCE_M)
 }
 
 /// How far `hand`'s stick must rise along `drum`'s normal to come out of it: the most any
@@ -123,19 +123,14 @@ pub fn lift_clear(hands: &mut [[Pose; 2]], plates: &[Plate], drums: &[Shell], st
                 *d = (*d).min(f.abs_diff(s));
             }
         }
-        let solids = plates
+        // Each solid's normal and the lift each frame needs along it.
+        let needs: Vec<(V3, Vec<f32>)> = plates
             .iter()
-            .map(|p| (p.normal, Box::new(move |h: &Pose| lift_needed(h, p)) as Box<dyn Fn(&Pose) -> f32>))
-            .chain(
-                drums
-                    .iter()
-                    .map(|d| (d.normal, Box::new(move |h: &Pose| lift_out_of(h, d)) as Box<dyn Fn(&Pose) -> f32>)),
-            );
-        for (normal, needed) in solids {
-            let need: Vec<f32> = hands.iter().map(|h| needed(&h[side])).collect();
-            if need.iter().all(|&l| l == 0.0) {
-                continue;
-            }
+            .map(|p| (p.normal, hands.iter().map(|h| lift_needed(&h[side], p)).collect::<Vec<f32>>()))
+            .chain(drums.iter().map(|d| (d.normal, hands.iter().map(|h| lift_out_of(&h[side], d)).collect())))
+            .filter(|(_, need)| need.iter().any(|&l| l > 0.0))
+            .collect();
+        for (normal, need) in needs {
             // Each frame takes the most any frame within EASE_FRAMES needs, eased by the
             // distance: at least its own need, and no step between frames larger than an
             // ease of the largest need over EASE_FRAMES.
