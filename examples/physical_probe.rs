@@ -138,7 +138,8 @@ fn main() {
             // One line per take with everything a split-wide figure needs.
             let mut vel_speed = Vec::new();
             let mut ipd_mm = Vec::new();
-            // Each IPD's piece, zone and how far from the tip its contact was, m.
+            // Each IPD's piece, zone, how far from the tip its contact was (m), limb, and the miss
+            // toward the drummer (radial, mm) and across that way (mm).
             let mut ipd_of = Vec::new();
             for (i, k) in first.iter().enumerate() {
                 let Some(k) = *k else { continue };
@@ -160,7 +161,20 @@ fn main() {
                     let (u, v) = drumsim::body::model::surface_basis(n);
                     let d = rapier3d::math::Vector::from(point) - rapier3d::math::Vector::from(piece.position_m);
                     ipd_mm.push(1e3 * (m.x_m - d.dot(u)).hypot(m.y_m - d.dot(v)));
-                    ipd_of.push((m.piece.clone(), format!("{:?}", hand[i].zone), part));
+                    // The miss along the way toward the drummer (radial, + toward the seat) and across it.
+                    let w = rapier3d::math::Vector::from(drumsim::kit::toward_drummer(piece));
+                    let (wu, wv) = (w.dot(u), w.dot(v));
+                    let (mx, my) = (m.x_m - d.dot(u), m.y_m - d.dot(v));
+                    let radial = 1e3 * (mx * wu + my * wv);
+                    let across = 1e3 * (-mx * wv + my * wu);
+                    ipd_of.push((
+                        m.piece.clone(),
+                        format!("{:?}", hand[i].zone),
+                        part,
+                        format!("{:?}", m.limb),
+                        radial,
+                        across,
+                    ));
                 }
             }
             let line = serde_json::json!({
