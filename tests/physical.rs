@@ -4,6 +4,7 @@
 //! sticks that do not sink, and repeatability.
 
 use drumsim::body::sim::{DrummerSettings, Mode};
+use drumsim::interaction::Limb;
 use drumsim::kit::Kit;
 use drumsim::midi::{read_file, NoteMap, Performance, ReadOptions, Zone};
 use drumsim::motion::hands::HandModel;
@@ -11,6 +12,7 @@ use drumsim::motion::pipeline::{model_hands, perform_planned, shipped_library, P
 use drumsim::perform::matching::{match_contacts, onsets};
 use drumsim::perform::targets::TargetSettings;
 use drumsim::perform::{play, play_with, Conductor, RehearsalSettings};
+use rapier3d::math::Vector;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -310,7 +312,8 @@ fn cross_sticks_that_meet_the_hoop_early_are_played_again_until_they_land_on_tim
 
 /// A varied handful of validation takes, each rendered physically (the first 20 s of the
 /// longer ones): a fast jazz ride pattern, a fill, a take in 3/4, a take with cross-sticks.
-/// Each holds what the physical render reaches today (README, "Physical render").
+/// Each holds what the physical render reaches today (README, "Physical render"), and
+/// together the IPD (p95 within 10 mm).
 #[test]
 fn a_varied_handful_of_takes_is_played_on_time() {
     let takes = [
@@ -336,7 +339,33 @@ fn a_varied_handful_of_takes_is_played_on_time() {
                         .zip(&take_.messages)
                         .filter_map(|(o, m)| o.map(|i| 1e3 * (m.time_s as f64 - notes[i].time_s)))
                         .collect();
-                    (take, notes.len(), recall, precision, mean_sd(&errs), take_.finite, (min_recall, min_precision))
+                    // IPD: each stick note's first contact on its own piece, from the zone's strike point.
+                    let mut first = vec![false; notes.len()];
+                    let ipd_mm: Vec<f64> = of
+                        .iter()
+                        .zip(&take_.messages)
+                        .filter_map(|(o, m)| {
+                            let i = (*o)?;
+                            let stick = matches!(m.limb, Limb::LeftHand | Limb::RightHand);
+                            let piece = kit.piece(&notes[i].piece).filter(|p| stick && p.id == m.piece)?;
+                            (!std::mem::replace(&mut first[i], true)).then_some(())?;
+                            let (point, _) = drumsim::kit::strike_point(&kit, piece, notes[i].zone);
+                            let n = Vector::from(piece.normal).normalize();
+                            let (u, v) = drumsim::body::model::surface_basis(n);
+                            let d = Vector::from(point) - Vector::from(piece.position_m);
+                            Some(1e3 * (m.x_m - d.dot(u)).hypot(m.y_m - d.dot(v)) as f64)
+                        })
+                        .collect();
+                    (
+                        take,
+                        notes.len(),
+                        recall,
+                        precision,
+                        mean_sd(&errs),
+                        take_.finite,
+                        (min_recall, min_precision),
+                        ipd_mm,
+                    )
                 })
             })
             .collect();
@@ -349,7 +378,17 @@ fn a_varied_handful_of_takes_is_played_on_time() {
             100.0 * precision
         );
     }
-    for (take, _, recall, precision, (mean, sd), finite, (min_recall, min_precision)) in results {
+    // The IPD: the strike points' spread, p95 within 10 mm over the handful.
+    let mut ipd: Vec<f64> = results.iter().flat_map(|r| r.7.iter().copied()).collect();
+    ipd.sort_by(f64::total_cmp);
+    let p95 = ipd[((0.95 * ipd.len() as f64).ceil() as usize).clamp(1, ipd.len()) - 1];
+    eprintln!(
+        "IPD over {} stick notes: mean {:.1} mm, p95 {p95:.1} mm",
+        ipd.len(),
+        ipd.iter().sum::<f64>() / ipd.len() as f64
+    );
+    assert!(ipd.len() >= 200 && p95 <= 10.0, "IPD p95 {p95:.1} mm over {} notes", ipd.len());
+    for (take, _, recall, precision, (mean, sd), finite, (min_recall, min_precision), _) in results {
         assert!(finite, "{take}");
         assert!(recall >= min_recall, "{take}: recall {recall}");
         assert!(precision >= min_precision, "{take}: precision {precision}");
