@@ -172,27 +172,11 @@ impl Drummer {
     /// Build the drummer in its ready pose above `kit`: left tip over the snare, right over
     /// the hi-hat (or the nearest pieces by those names' absence: the first two pieces).
     pub fn new(kit: &Kit, settings: DrummerSettings) -> Result<Drummer, DrummerError> {
-        Drummer::new_at(kit, settings, None)
-    }
-
-    /// [`Drummer::new`] with the arms already reaching for `tips` (solved from the ready
-    /// pose), when given: a performance whose first targets lie over another piece starts
-    /// there, not swinging a stick from the snare across the kit to them (a left stick
-    /// caught under tom 1's shell for the first 150 ms of a fill, 4.7 mm into it).
-    pub fn new_at(
-        kit: &Kit,
-        settings: DrummerSettings,
-        tips: Option<&[ArmTarget; 2]>,
-    ) -> Result<Drummer, DrummerError> {
         settings.validate()?;
         let anthro = Anthropometry::new(settings.body)?;
         let skel = Skeleton::new(&anthro);
         let rest = ready_pose(&skel, kit, &settings.ik);
-        let mut start = rest;
-        for (side, target) in tips.into_iter().flatten().enumerate() {
-            solve_arm(&skel, &mut start, &rest, side, target, &settings.ik, 1e-4, 3000);
-        }
-        let pose = skel.forward(Rotation::IDENTITY, &start);
+        let pose = skel.forward(Rotation::IDENTITY, &rest);
         let mut model = model::build(&skel, &pose, kit, settings.solver_iterations);
         let legs = super::legs::Legs::new(&anthro);
         let gains = gains(&skel, &pose, settings.natural_hz, settings.damping_ratio);
@@ -219,7 +203,7 @@ impl Drummer {
             model,
             gains,
             rest,
-            kin: start,
+            kin: rest,
             step: 0,
             contacts,
             limits,
