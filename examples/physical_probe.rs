@@ -156,24 +156,15 @@ fn main() {
                 let stick =
                     matches!(m.limb, drumsim::interaction::Limb::LeftHand | drumsim::interaction::Limb::RightHand);
                 if let (true, Some(piece)) = (stick, kit.piece(&hand[i].piece).filter(|p| p.id == m.piece)) {
-                    let (point, _) = drumsim::learn::corpus::strike_point(&kit, piece, hand[i].zone);
-                    let n = rapier3d::math::Vector::from(piece.normal).normalize();
-                    let (u, v) = drumsim::body::model::surface_basis(n);
-                    let d = rapier3d::math::Vector::from(point) - rapier3d::math::Vector::from(piece.position_m);
-                    ipd_mm.push(1e3 * (m.x_m - d.dot(u)).hypot(m.y_m - d.dot(v)));
-                    // The miss along the way toward the drummer (radial, + toward the seat) and across it.
-                    let w = rapier3d::math::Vector::from(drumsim::kit::toward_drummer(piece));
-                    let (wu, wv) = (w.dot(u), w.dot(v));
-                    let (mx, my) = (m.x_m - d.dot(u), m.y_m - d.dot(v));
-                    let radial = 1e3 * (mx * wu + my * wv);
-                    let across = 1e3 * (-mx * wv + my * wu);
+                    let miss = drumsim::kit::strike_miss(&kit, piece, hand[i].zone, [m.x_m, m.y_m]);
+                    ipd_mm.push(1e3 * miss.distance_m);
                     ipd_of.push((
                         m.piece.clone(),
                         format!("{:?}", hand[i].zone),
                         part,
                         format!("{:?}", m.limb),
-                        radial,
-                        across,
+                        1e3 * miss.radial_m,
+                        1e3 * miss.across_m,
                     ));
                 }
             }

@@ -558,11 +558,7 @@ pub fn score_physical(
         let stick = matches!(m.limb, crate::interaction::Limb::LeftHand | crate::interaction::Limb::RightHand);
         let aim = of.filter(|_| stick).and_then(|i| {
             let piece = kit.piece(&all[i].piece).filter(|p| p.id == m.piece)?;
-            let (point, _) = crate::kit::strike_point(kit, piece, all[i].zone);
-            let n = rapier3d::math::Vector::from(piece.normal).normalize();
-            let (u, v) = crate::body::model::surface_basis(n);
-            let d = rapier3d::math::Vector::from(point) - rapier3d::math::Vector::from(piece.position_m);
-            Some([d.dot(u), d.dot(v)])
+            Some(crate::kit::strike_point_uv(kit, piece, all[i].zone))
         });
         if let Some(last) = carrier.contacts.contacts.last_mut() {
             last.aim_m = aim;

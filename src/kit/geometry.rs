@@ -68,6 +68,38 @@ pub fn toward_drummer_angle(piece: &Piece) -> f32 {
     dot(dir, v).atan2(dot(dir, u))
 }
 
+/// A zone's strike point in the piece's own surface coordinates (`x` along `u`, `y` along
+/// `v` of [`surface_basis`], metres from its centre), as contact messages carry their points.
+pub fn strike_point_uv(kit: &Kit, piece: &Piece, zone: Zone) -> [f32; 2] {
+    let (u, v) = surface_basis(normalize(piece.normal));
+    let (p, _) = strike_point(kit, piece, zone);
+    let d = [p[0] - piece.position_m[0], p[1] - piece.position_m[1], p[2] - piece.position_m[2]];
+    [dot(d, u), dot(d, v)]
+}
+
+/// How far a contact fell from the strike point it was aimed at, metres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StrikeMiss {
+    /// The distance in the surface's plane: the physical render's IPD (DESIGN.md section 5).
+    pub distance_m: f32,
+    /// Its part along [`toward_drummer`], + toward the seat.
+    pub radial_m: f32,
+    /// Its part across that way: along the radial direction turned a quarter turn about the
+    /// surface's normal (counter-clockwise seen from above the surface).
+    pub across_m: f32,
+}
+
+/// Where a contact at `at` (the piece's surface coordinates, as in its contact message) fell
+/// from `zone`'s strike point on `piece`.
+pub fn strike_miss(kit: &Kit, piece: &Piece, zone: Zone, at: [f32; 2]) -> StrikeMiss {
+    let aim = strike_point_uv(kit, piece, zone);
+    let (mx, my) = (at[0] - aim[0], at[1] - aim[1]);
+    let (u, v) = surface_basis(normalize(piece.normal));
+    let w = toward_drummer(piece);
+    let (wu, wv) = (dot(w, u), dot(w, v));
+    StrikeMiss { distance_m: mx.hypot(my), radial_m: mx * wu + my * wv, across_m: my * wu - mx * wv }
+}
+
 pub(crate) fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -105,6 +137,20 @@ mod tests {
             let r = piece.radius_m * kit.zones.bow;
             assert!((dot(d, u) - r * a.cos()).abs() < 1e-5, "{}", piece.id);
             assert!((dot(d, v) - r * a.sin()).abs() < 1e-5, "{}", piece.id);
+        }
+    }
+
+    #[test]
+    fn a_contact_at_the_centre_misses_its_strike_point_away_from_the_seat() {
+        let kit = Kit::builtin_default();
+        for piece in &kit.pieces {
+            let on = strike_miss(&kit, piece, Zone::Head, strike_point_uv(&kit, piece, Zone::Head));
+            assert!(on.distance_m < 1e-6 && on.radial_m.abs() < 1e-6 && on.across_m.abs() < 1e-6, "{}", piece.id);
+            // The head's strike point lies toward the seat: the centre is that far beyond it.
+            let r = piece.radius_m * kit.zones.head;
+            let centre = strike_miss(&kit, piece, Zone::Head, [0.0, 0.0]);
+            assert!((centre.distance_m - r).abs() < 1e-5, "{}: {centre:?}", piece.id);
+            assert!((centre.radial_m + r).abs() < 1e-5 && centre.across_m.abs() < 1e-5, "{}: {centre:?}", piece.id);
         }
     }
 }

@@ -6,7 +6,9 @@ mod raw;
 
 use std::path::{Path, PathBuf};
 
-pub use geometry::{strike_point, surface_basis, toward_drummer, toward_drummer_angle};
+pub use geometry::{
+    strike_miss, strike_point, strike_point_uv, surface_basis, toward_drummer, toward_drummer_angle, StrikeMiss,
+};
 pub use raw::{BUILTIN_KITS, DEFAULT_KIT_TOML};
 
 /// How a piece vibrates.

@@ -22,8 +22,8 @@ pub const STEPS_PER_PERIOD: usize = 40;
 /// A contact this close to the onset of the note the hand is playing is that note's.
 pub const TOUCH_WINDOW_S: f64 = 0.030;
 
-/// Time the body spends reaching its first targets before the song starts, seconds. Its
-/// contacts in that time are not part of the performance.
+/// Time the body spends settling at its first targets (it starts reaching for them) before
+/// the song starts, seconds. Its contacts in that time are not part of the performance.
 pub const PREROLL_S: f64 = 0.5;
 
 /// Where the body stands: everything a period changes. A clone is a snapshot the
@@ -209,8 +209,15 @@ impl Conductor {
         settings: DrummerSettings,
         targets: TargetSettings,
     ) -> Result<Conductor, DrummerError> {
-        let drummer = Drummer::new(kit, settings)?;
-        let targets = TargetShape::of(&drummer).targets_with(&planned.hands, targets);
+        let ready = Drummer::new(kit, settings.clone())?;
+        let targets = TargetShape::of(&ready).targets_with(&planned.hands, targets);
+        // The arms start at their first targets, kept clear of the kit as every target is
+        // (a take's first frame may lay a tip on the head it strikes at once): the preroll
+        // only settles them.
+        let first = Conductor::assemble(kit, ready, targets, None, None, -PREROLL_S);
+        let start = first.guarded_start();
+        let drummer = Drummer::new_at(kit, settings, Some(&start))?;
+        let targets = first.targets;
         let bodies = PedalBodies::new(kit);
         let pedal_targets = bodies.as_ref().map(|b| PedalTargets::new(perf, map, kit, b, &planned.motion));
         Ok(Conductor::assemble(kit, drummer, targets, bodies, pedal_targets, -PREROLL_S))
@@ -264,6 +271,18 @@ impl Conductor {
             since: Taken { at: f64::NEG_INFINITY, fade: [REPLAN_FADE_S; 2] },
             fading: Default::default(),
         }
+    }
+
+    /// The targets the first period starts from, kept clear of the kit ([`guard`]) as if
+    /// the tips were already there.
+    fn guarded_start(&self) -> [ArmTarget; 2] {
+        let surfaces = self.state.drummer.surfaces();
+        std::array::from_fn(|h| {
+            let mut a = self.state.from[h];
+            let tip = a.tip;
+            guard(&self.targets, &self.plates, &self.piece_of, surfaces, h, self.state.t, &mut a, tip);
+            a
+        })
     }
 
     /// Follow a newer plan from the next period on (live play), faded in from where the

@@ -201,11 +201,14 @@ const MAX_OFFSET_M: f32 = 0.02;
 const LEARN_TAPER: f32 = 5.0;
 
 /// Iterative learning control of one stroke: over `periods` (from its preparation to its
-/// contact), each period's target offset takes a share of the tracking error
-/// (`aims - sims`, what the plan wanted minus where the simulated tip was) a little later.
-/// A stroke off in time (by more than `tolerance_s`) learns along the surface's normal
-/// only; one on time but off the strike point, within the surface's plane only; one that
-/// never landed, both.
+/// contact), each period's target offset takes a share of what was off. A stroke off in
+/// time (by more than `settings.tolerance_s`) learns along the surface's normal from the
+/// tracking error (`aims - sims`, what the plan wanted minus where the simulated tip was) a
+/// little later; one off the strike point (by more than `settings.aim_tolerance_m`) moves
+/// across the surface against its miss itself; one that never landed learns the whole
+/// tracking error. The miss, not the tracking error, steers the point: the tip tracks its
+/// target to a few millimetres at the onset and still lands 1-3 cm up or down a tilted tom
+/// head, where the stick came down along its arc.
 pub fn learn(
     offsets: &mut [Vector],
     verdict: Verdict,
@@ -213,10 +216,9 @@ pub fn learn(
     periods: std::ops::RangeInclusive<usize>,
     aims: &[Vector],
     sims: &[Vector],
-    tolerance_s: f64,
+    settings: &RehearsalSettings,
 ) {
     let n = Vector::from(note.normal);
-    let timing = !matches!(verdict, Verdict::Off { error_s, .. } if error_s.abs() <= tolerance_s);
     let (p0, p1) = (*periods.start(), *periods.end());
     for q in periods {
         let r = (q + LEARN_LEAD).min(p1);
@@ -224,8 +226,12 @@ pub fn learn(
         let e = match verdict {
             // Nothing landed: wherever the tip was off, in height or across the surface.
             Verdict::Missing => e,
-            _ if timing => n * e.dot(n),
-            _ => e - n * e.dot(n),
+            Verdict::Good => Vector::ZERO,
+            Verdict::Off { error_s, miss_m } => {
+                let timing = if error_s.abs() > settings.tolerance_s { n * e.dot(n) } else { Vector::ZERO };
+                let point = if miss_m.length() > settings.aim_tolerance_m { -miss_m } else { Vector::ZERO };
+                timing + point
+            }
         };
         let taper = ((q - p0) as f32 / LEARN_TAPER).min(1.0);
         offsets[q] = (offsets[q] + e * (LEARN_GAIN * taper)).clamp_length_max(MAX_OFFSET_M);
@@ -493,7 +499,7 @@ impl Rehearsal {
                         let periods = period_index(approach.max(contact - APPROACH_S))..=period_index(contact).min(p1);
                         changed |= !periods.is_empty();
                         let (aims, sims) = (&self.aims[h], &self.sims[h]);
-                        learn(offsets, verdict, &n, periods, aims, sims, s.tolerance_s);
+                        learn(offsets, verdict, &n, periods, aims, sims, &s);
                         if let Verdict::Off { error_s, .. } = verdict {
                             if error_s.abs() > s.tolerance_s {
                                 learn_time(offsets, &n, from, contact, error_s, &self.aims[h], p1);
@@ -641,5 +647,35 @@ mod tests {
         learn_time(&mut late, &n, 0.9, 1.012, 0.012, &low, periods - 1);
         assert!(late.iter().all(|o| o.z <= 0.0 && o.z >= -0.005 - 1e-6));
         assert!(late[period_index(1.012 - lead)].z < -0.004);
+    }
+
+    #[test]
+    fn a_stroke_on_time_but_off_the_point_moves_against_its_miss_even_when_it_tracked_its_target() {
+        let periods = period_index(1.2);
+        let (p0, p1) = (period_index(0.9), period_index(1.0));
+        // The tip followed its targets exactly, and still met the head 15 mm along +y.
+        let aims = vec![Vector::new(0.0, 0.0, 0.62); periods];
+        let miss = Vector::new(0.0, 0.015, 0.0);
+        let settings = RehearsalSettings::default();
+        let mut offsets = vec![Vector::ZERO; periods];
+        learn(
+            &mut offsets,
+            Verdict::Off { error_s: 0.002, miss_m: miss },
+            &note(1.0),
+            p0..=p1,
+            &aims,
+            &aims,
+            &settings,
+        );
+        // Across the surface only, against the miss: 0.7 of it once eased in, nothing outside.
+        assert!(offsets.iter().all(|o| o.x == 0.0 && o.z == 0.0 && o.y <= 0.0));
+        assert!((offsets[p1].y + 0.7 * 0.015).abs() < 1e-6, "{}", offsets[p1].y);
+        assert!(offsets[p0].y == 0.0 && offsets[p0 + 1].y < 0.0);
+        assert!(offsets[..p0].iter().chain(&offsets[p1 + 1..]).all(|o| *o == Vector::ZERO));
+        // Within the aim's tolerance and on time: nothing to learn.
+        let mut none = vec![Vector::ZERO; periods];
+        let near = Verdict::Off { error_s: 0.002, miss_m: Vector::new(0.0, 0.008, 0.0) };
+        learn(&mut none, near, &note(1.0), p0..=p1, &aims, &aims, &settings);
+        assert!(none.iter().all(|o| *o == Vector::ZERO));
     }
 }
