@@ -361,7 +361,10 @@ fn a_varied_handful_of_takes_is_played_on_time() {
                             let stick = matches!(m.limb, Limb::LeftHand | Limb::RightHand);
                             let piece = kit.piece(&notes[i].piece).filter(|p| stick && p.id == m.piece)?;
                             (!std::mem::replace(&mut first[i], true)).then_some(())?;
-                            Some(1e3 * drumsim::kit::strike_miss(&kit, piece, notes[i].zone, [m.x_m, m.y_m]).distance_m as f64)
+                            Some(
+                                1e3 * drumsim::kit::strike_miss(&kit, piece, notes[i].zone, [m.x_m, m.y_m]).distance_m
+                                    as f64,
+                            )
                         })
                         .collect();
                     (
