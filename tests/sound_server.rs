@@ -21,6 +21,18 @@ use std::time::{Duration, Instant};
 /// The sound's lookahead in every run, ms: the note sounds this long after it was played.
 const LOOKAHEAD_MS: f64 = 20.0;
 
+/// The timing checks leave out a note group this long before and after an xrun, frames (as
+/// `live_physical` does): on this shared, non-realtime dummy server a cycle some client
+/// missed costs drumsim's audio clock a period and a re-lock, and what sounds around it can
+/// land a period off (a CI run under load: one note 5.2 ms early in 9 s with 4 xruns).
+const XRUN_BEFORE: u64 = RATE / 20;
+const XRUN_AFTER: u64 = RATE * 3 / 10;
+
+/// Whether the group starting at frame `start` lies near one of the `xruns` (frames).
+fn near_xrun(start: u64, xruns: &[u64]) -> bool {
+    xruns.iter().any(|&x| start + XRUN_BEFORE >= x && start <= x + XRUN_AFTER)
+}
+
 /// Stop the sound server as a user does (SIGTERM, like Ctrl-C): it prints its last counts
 /// and closes its JACK client cleanly (a client killed outright can keep jackd from exiting
 /// on SIGTERM, and a jackd killed outright keeps its slot in JACK's server registry).
@@ -71,9 +83,11 @@ enum Record<'a> {
     Nothing,
 }
 
-/// Play `events` into `drumsim live ARGS` and record the audio `record` names; the recording.
-fn play(jack: &JackServer, events: Vec<(u64, [u8; 3])>, args: &[&str], record: Record) -> Vec<f32> {
-    play_stalled(jack, events, args, record, None).0
+/// Play `events` into `drumsim live ARGS` and record the audio `record` names; the recording
+/// and the frames of the xruns JACK reported meanwhile.
+fn play(jack: &JackServer, events: Vec<(u64, [u8; 3])>, args: &[&str], record: Record) -> (Vec<f32>, Vec<u64>) {
+    let (x, _, xruns) = play_stalled(jack, events, args, record, None);
+    (x, xruns)
 }
 
 /// As [`play`], jackd stopped (SIGSTOP) for `stall.1` once the test client has played to
@@ -84,7 +98,7 @@ fn play_stalled(
     args: &[&str],
     record: Record,
     mut stall: Option<(u64, Duration)>,
-) -> (Vec<f32>, String) {
+) -> (Vec<f32>, String, Vec<u64>) {
     let total = events.last().unwrap().0 + RATE;
     let (client, armed, progress) = player("drumsim-test", events, total as usize);
     let seconds = (total / RATE + 3).to_string();
@@ -119,10 +133,11 @@ fn play_stalled(
         }
         thread::sleep(Duration::from_millis(if stall.is_some() { 2 } else { 50 }));
     }
-    let (_, _, player) = client.deactivate().unwrap();
+    let (_, xruns, player) = client.deactivate().unwrap();
     let status = live.wait_exit(Duration::from_secs(20));
     assert!(status.success(), "drumsim live failed ({status}):\n{}", live.stderr());
-    (player.recorded, live.stderr())
+    let xruns = xruns.0.iter().filter_map(|&w| player.frame_at(w)).collect();
+    (player.recorded, live.stderr(), xruns)
 }
 
 /// Each group's sound onset after its first note, ms (None: silent within 60 ms).
@@ -144,26 +159,35 @@ fn a_sound_server_in_another_process_sounds_each_note_when_the_in_process_sound_
     let jack = JackServer::start();
     let (events, starts) = schedule(&NOTES, NOTES.len());
     let lookahead = LOOKAHEAD_MS.to_string();
-    let here = latencies(
-        &play(&jack, events.clone(), &["--audio", "jack", "--lookahead-ms", &lookahead], Record::Live),
-        &starts,
-    );
+    let (x, xruns_here) = play(&jack, events.clone(), &["--audio", "jack", "--lookahead-ms", &lookahead], Record::Live);
+    let here = latencies(&x, &starts);
 
     let port = free_udp_port();
     let mut server = sound_server(&jack, port, 30);
     let to = format!("udp://127.0.0.1:{port}");
-    let x = play(&jack, events, &["--sound-to", &to, "--lookahead-ms", &lookahead], Record::Server(&server));
+    let (x, xruns_there) =
+        play(&jack, events, &["--sound-to", &to, "--lookahead-ms", &lookahead], Record::Server(&server));
     if let Some(path) = std::env::var_os("DRUMSIM_SERVER_WAV") {
         save_wav(path.as_ref(), &x);
     }
     let there = latencies(&x, &starts);
     stop(&mut server);
+    // The groups away from the xruns of both runs are judged.
+    let judged: Vec<bool> = starts.iter().map(|&s| !near_xrun(s, &xruns_here) && !near_xrun(s, &xruns_there)).collect();
     let mut diffs = Vec::new();
-    for (i, (a, b)) in here.iter().zip(&there).enumerate() {
+    for (i, (a, b)) in here.iter().zip(&there).enumerate().filter(|(i, _)| judged[*i]) {
         let (Some(a), Some(b)) = (a, b) else { panic!("note group {i}: in process {a:?} ms, over UDP {b:?} ms") };
         diffs.push(b - a);
     }
     println!("in process (ms): {here:.1?}\nover UDP   (ms): {there:.1?}");
+    println!(
+        "judged {} of {} groups (left out: near one of {} + {} xruns)",
+        diffs.len(),
+        starts.len(),
+        xruns_here.len(),
+        xruns_there.len()
+    );
+    assert!(diffs.len() * 2 >= starts.len(), "more than half the groups lay near an xrun");
     let worst = diffs.iter().fold(0.0f64, |m, d| m.max(d.abs()));
     let mean = diffs.iter().sum::<f64>() / diffs.len() as f64;
     println!("per-note difference over UDP - in process: mean {mean:+.2} ms, largest {worst:.2} ms");
@@ -171,7 +195,11 @@ fn a_sound_server_in_another_process_sounds_each_note_when_the_in_process_sound_
     // order and the audio block's placement).
     let period_ms = PERIOD as f64 * 1000.0 / RATE as f64;
     assert!(
-        here.iter().flatten().all(|&l| (l - LOOKAHEAD_MS).abs() <= period_ms),
+        here.iter()
+            .zip(&judged)
+            .filter(|(_, j)| **j)
+            .flat_map(|(l, _)| *l)
+            .all(|l| (l - LOOKAHEAD_MS).abs() <= period_ms),
         "each note about its lookahead after it was played: {here:?}"
     );
     // Each stroke sounds a little different by design (strike point, what still rings), so a
@@ -195,7 +223,7 @@ fn the_notes_after_jackd_stalls_still_sound_their_lookahead_after_they_were_play
     let lookahead = LOOKAHEAD_MS.to_string();
     let stall = (starts[6] + SPACING / 2, Duration::from_millis(40));
     let args = ["--audio", "jack", "--lookahead-ms", &lookahead];
-    let (x, stderr) = play_stalled(&jack, events, &args, Record::Live, Some(stall));
+    let (x, stderr, _) = play_stalled(&jack, events, &args, Record::Live, Some(stall));
     let after = latencies(&x, &starts);
     println!("after each note (ms): {after:.1?}");
     println!("{stderr}");
@@ -281,7 +309,7 @@ fn lost_duplicated_and_reordered_datagrams_are_counted_and_every_delivered_strik
     let to = format!("udp://{}", inbound.local_addr().unwrap());
     let log = relay(inbound, port, Instant::now() + Duration::from_secs(35));
     let lookahead = LOOKAHEAD_MS.to_string();
-    let x = play(&jack, events, &["--sound-to", &to, "--lookahead-ms", &lookahead], Record::Server(&server));
+    let (x, xruns) = play(&jack, events, &["--sound-to", &to, "--lookahead-ms", &lookahead], Record::Server(&server));
     let heard = latencies(&x, &starts);
     stop(&mut server);
     let log = log.lock().unwrap();
@@ -297,10 +325,16 @@ fn lost_duplicated_and_reordered_datagrams_are_counted_and_every_delivered_strik
     let contacts: Vec<(f32, bool)> =
         log.datagrams.iter().flat_map(|(times, d)| times.iter().map(move |&t| (t, *d))).collect();
     let t0 = contacts.iter().map(|c| c.0).fold(f32::INFINITY, f32::min);
-    let (s0, mut silent_lost) = (starts[0], 0);
+    let (s0, mut silent_lost, mut left_out) = (starts[0], 0, 0);
     for (i, &s) in starts.iter().enumerate() {
         let at = (s - s0) as f32 / RATE as f32;
         let mine: Vec<bool> = contacts.iter().filter(|c| (c.0 - t0 - at).abs() < 0.015).map(|c| c.1).collect();
+        // Near an xrun, when a message was sent and when it sounded are this machine's.
+        if near_xrun(s, &xruns) {
+            left_out += 1;
+            silent_lost += usize::from(!mine.is_empty() && !mine.iter().any(|&d| d) && heard[i].is_none());
+            continue;
+        }
         assert!(!mine.is_empty(), "group {i}: no contact message was sent");
         match (mine.iter().any(|&d| d), heard[i]) {
             (true, Some(ms)) => assert!(ms < LOOKAHEAD_MS + 15.0, "group {i} sounded {ms:.1} ms after its note"),
@@ -309,6 +343,8 @@ fn lost_duplicated_and_reordered_datagrams_are_counted_and_every_delivered_strik
             (false, Some(ms)) => panic!("group {i} was lost, yet something sounded {ms:.1} ms after it"),
         }
     }
+    println!("{left_out} of {} groups left out, near one of {} xruns", starts.len(), xruns.len());
+    assert!(left_out * 2 <= starts.len(), "more than half the groups lay near an xrun");
     assert!(silent_lost >= 1, "a lost single note is silent");
     let stopped = server.stderr();
     let last = stopped.lines().rev().find(|l| l.contains("stopped after")).unwrap_or_default().to_string();
