@@ -342,7 +342,7 @@ fn strike_ride(style: Style) {
 }
 
 #[test]
-fn an_arm_reaching_past_its_joint_limits_stays_at_its_target_instead_of_running_away() {
+fn an_arm_reaching_past_its_joint_limits_gets_to_its_target_without_running_away() {
     // The rearranged kit's floor tom played by the left hand, stick tilted up toward the
     // drummer's right: the target sits at the edge of what the left arm's limits allow. Once
     // a clamped step carried the tip off and the kinematic layer swung 0.9 m in 8 ms.
@@ -350,7 +350,7 @@ fn an_arm_reaching_past_its_joint_limits_stays_at_its_target_instead_of_running_
     let mut d = Drummer::new(&kit, DrummerSettings::default()).unwrap();
     let ready = [0, 1].map(|i| ArmTarget { tip: d.tips(Mode::Ik)[i], dir: d.stick_dirs()[i] });
     let reach = ArmTarget { tip: Vector::new(0.42, 0.30, 0.68), dir: Vector::new(0.71, 0.42, 0.57).normalize() };
-    let mut worst_step = 0.0f32;
+    let (mut worst_step, mut reached) = (0.0f32, f32::INFINITY);
     let mut last = d.tips(Mode::Ik)[0];
     for k in 0..6000 {
         // 0.3 s there, a stick turning about its tip for 0.3 s.
@@ -364,10 +364,12 @@ fn an_arm_reaching_past_its_joint_limits_stays_at_its_target_instead_of_running_
         worst_step = worst_step.max((tip - last).length());
         last = tip;
         if k == 2999 {
-            eprintln!("reached to {} m", (tip - reach.tip).length());
+            reached = (tip - reach.tip).length();
         }
     }
-    eprintln!("turned, {} m off", (last - reach.tip).length());
+    eprintln!("reached to {reached} m; turned, {} m off", (last - reach.tip).length());
+    // The tip gets there (2.5 mm measured); the turned stick is an aim the arm cannot hold.
+    assert!(reached < 0.01, "the left tip stopped {reached} m from its target");
     // One kinematic step moves the tip at most ik.max_step_m (1.5 mm) and a little more
     // where the posture pull adds to it.
     assert!(worst_step < 0.004, "the left tip jumped {worst_step} m in one step");
