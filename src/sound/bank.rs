@@ -205,7 +205,15 @@ impl Bank {
     /// Add the next `out.len()` samples of every ringing mode into `out`; if `centre` is given,
     /// also write the centre displacement of the first chunk into it. `acc` is scratch of at
     /// least `out.len()` lanes.
-    pub fn process(&mut self, out: &mut [f32], mut centre: Option<&mut [f32]>, acc: &mut [Lane]) {
+    pub fn process(&mut self, out: &mut [f32], centre: Option<&mut [f32]>, acc: &mut [Lane]) {
+        // Compiled again with AVX2 + FMA where the processor has them (pulp's safe run-time
+        // dispatch); every loop below is inlined into it. No fused multiply-adds are formed
+        // (Rust never contracts), so the output is the same bit for bit either way.
+        pulp::Arch::new().dispatch(|| self.process_inner(out, centre, acc))
+    }
+
+    #[inline(always)]
+    fn process_inner(&mut self, out: &mut [f32], mut centre: Option<&mut [f32]>, acc: &mut [Lane]) {
         let mut i = 0;
         while i < out.len() {
             let to_check = (SLEEP_CHECK - self.clock % SLEEP_CHECK) as usize;
@@ -240,6 +248,7 @@ impl Bank {
     }
 
     /// Add the chunks from `from` on over `out.len()` samples into `out`.
+    #[inline(always)]
     fn process_segment(&mut self, out: &mut [f32], centre: Option<&mut [f32]>, acc: &mut [Lane], from: usize) {
         let n = out.len();
         let acc = &mut acc[..n];
@@ -302,6 +311,7 @@ impl Bank {
     /// The modes coupled through the stretch, a sample at a time over every ringing chunk
     /// (the stretch of one sample pulls on the next); back to [`Bank::process_segment`] once
     /// the stretch has fallen below [`STRETCH_OFF`] for a whole segment.
+    #[inline(always)]
     fn process_coupled(&mut self, out: &mut [f32], mut centre: Option<&mut [f32]>) {
         let mut stretch = self.stretch;
         let mut most = 0.0f32;
@@ -340,6 +350,7 @@ impl Bank {
     }
 
     /// Every chunk a sample at a time, coupled through the plate's stress.
+    #[inline(always)]
     fn process_stressed(&mut self, out: &mut [f32], mut centre: Option<&mut [f32]>) {
         let Some(stress) = self.stress.as_mut() else {
             return;
@@ -356,6 +367,7 @@ impl Bank {
         self.stress_most = self.stress_most.max(most);
     }
 
+    #[inline(always)]
     fn process_first_with_centre(&mut self, acc: &mut [Lane], centre: &mut [f32]) {
         let (a1, a2, g, w) = (self.a1[0], self.a2[0], self.gain[0], self.centre);
         let (mut y1, mut y2) = (self.y1[0], self.y2[0]);
@@ -375,6 +387,7 @@ impl Bank {
         self.y2[0] = y2;
     }
 
+    #[inline(always)]
     fn sleep_if_silent(&mut self, c: usize) {
         let (y1, y2, g) = (&self.y1[c], &self.y2[c], &self.gain[c]);
         let (a1, a2) = (&self.a1[c], &self.a2[c]);
