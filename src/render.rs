@@ -18,6 +18,8 @@ pub const SAMPLE_RATE_HZ: u32 = 48_000;
 /// Longest ring-out rendered after the last event, seconds.
 pub const MAX_TAIL_S: f64 = 8.0;
 const BLOCK: usize = 512;
+/// Blocks an offline render gives its voices at a time (0.34 s).
+const WINDOW_BLOCKS: usize = 32;
 
 /// Where the strikes that sound come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -576,6 +578,16 @@ pub fn score_physical(
     Ok((carrier.finish(perf.notes_end_s), summary))
 }
 
+/// Threads an offline render gives its voices: `DRUMSIM_THREADS` if set (1: the calling
+/// thread alone), else every core. The samples are the same whatever the number.
+pub fn render_threads() -> usize {
+    std::env::var("DRUMSIM_THREADS")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .filter(|n| *n > 0)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
 /// Render sound events to stereo blocks handed to `sink`, starting at the events' time zero
 /// (the limiter's delay is removed). Stops after the last event once all is silent, or after
 /// [`MAX_TAIL_S`]. Returns the number of samples rendered and the engine's NaN count.
@@ -586,10 +598,11 @@ pub fn render_events(
     mut sink: impl FnMut(&[f32], &[f32]) -> anyhow::Result<()>,
     mut progress: impl FnMut(u64),
 ) -> anyhow::Result<(u64, u64)> {
-    // Every event of a block waits in the queue until the block is processed: room for the
-    // busiest block of the song (4,097 notes at one instant are one block's).
+    // Every event of a window waits in the queue until the window is processed: room for the
+    // busiest window of the song (4,097 notes at one instant are one window's).
+    let window = (WINDOW_BLOCKS * BLOCK) as u64;
     let mut busiest = 0usize;
-    for block in events.chunk_by(|a, b| a.at_sample / BLOCK as u64 == b.at_sample / BLOCK as u64) {
+    for block in events.chunk_by(|a, b| a.at_sample / window == b.at_sample / window) {
         busiest = busiest.max(block.len());
     }
     let event_capacity = busiest.max(4096);
@@ -599,28 +612,37 @@ pub fn render_events(
     let last_event = events.last().map_or(0, |e| e.at_sample);
     let end_min = last_event.max((duration_s * SAMPLE_RATE_HZ as f64) as u64);
     let end_max = end_min + (MAX_TAIL_S * SAMPLE_RATE_HZ as f64) as u64;
-    let (mut left, mut right) = (vec![0.0f32; BLOCK], vec![0.0f32; BLOCK]);
+    // Windows of blocks, the voices of each on every core (`Engine::process_parallel`: the
+    // same samples as one block at a time on one).
+    let threads = render_threads();
+    let frames = WINDOW_BLOCKS * BLOCK;
+    let (mut left, mut right) = (vec![0.0f32; frames], vec![0.0f32; frames]);
+    let mut silent = vec![false; WINDOW_BLOCKS];
     let mut next = 0;
     let mut written = 0u64;
     crate::sound::denormals::with_flush_to_zero(|| -> anyhow::Result<()> {
         loop {
             let t = engine.sample_time();
-            let block_end = t + BLOCK as u64;
-            while next < events.len() && events[next].at_sample < block_end {
+            let window_end = t + frames as u64;
+            while next < events.len() && events[next].at_sample < window_end {
                 if !engine.push(events[next]) {
-                    anyhow::bail!("sound engine queue overflowed at sample {t}");
+                    anyhow::bail!("sound engine queue overflowed at sample {}", events[next].at_sample);
                 }
                 next += 1;
             }
-            engine.process(&mut left, &mut right);
-            // Drop the limiter's look-ahead so the output lines up with the events.
-            let skip = latency.saturating_sub(t).min(BLOCK as u64) as usize;
-            sink(&left[skip..], &right[skip..])?;
-            written += (BLOCK - skip) as u64;
-            progress(written);
-            let done = written >= end_min && next == events.len() && engine.is_silent();
-            if done || written >= end_max {
-                return Ok(());
+            engine.process_parallel(&mut left, &mut right, &mut silent, threads);
+            for (b, &silent_after) in silent.iter().enumerate() {
+                let block_t = t + (b * BLOCK) as u64;
+                // Drop the limiter's look-ahead so the output lines up with the events.
+                let skip = latency.saturating_sub(block_t).min(BLOCK as u64) as usize;
+                let range = b * BLOCK + skip..(b + 1) * BLOCK;
+                sink(&left[range.clone()], &right[range])?;
+                written += (BLOCK - skip) as u64;
+                progress(written);
+                let done = written >= end_min && next == events.len() && silent_after;
+                if done || written >= end_max {
+                    return Ok(());
+                }
             }
         }
     })?;

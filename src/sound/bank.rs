@@ -5,6 +5,7 @@
 //! so that one chunk's recursion runs while the other's waits on its multiply. Chunks of eight modes that have
 //! decayed below audibility sleep until the next strike.
 
+use super::lanes::{dispatch, LaneFn, LaneOps};
 use super::stress::Stress;
 
 /// Modes per chunk.
@@ -67,7 +68,7 @@ pub struct Bank {
 const STRETCH_OFF: f64 = 1e-3;
 
 /// Chunks run side by side in the inner loop.
-const GROUP: usize = 2;
+const GROUP: usize = 4;
 
 /// Samples between checks for chunks that have decayed to silence.
 pub const SLEEP_CHECK: u64 = 128;
@@ -206,22 +207,33 @@ impl Bank {
     /// also write the centre displacement of the first chunk into it. `acc` is scratch of at
     /// least `out.len()` lanes.
     pub fn process(&mut self, out: &mut [f32], centre: Option<&mut [f32]>, acc: &mut [Lane]) {
-        // Compiled again with AVX2 + FMA where the processor has them (pulp's safe run-time
-        // dispatch); every loop below is inlined into it. No fused multiply-adds are formed
-        // (Rust never contracts), so the output is the same bit for bit either way.
-        pulp::Arch::new().dispatch(|| self.process_inner(out, centre, acc))
+        // Compiled again for AVX2 where the processor has it (see `lanes`); every loop below
+        // is inlined into it.
+        struct Run<'a> {
+            bank: &'a mut Bank,
+            out: &'a mut [f32],
+            centre: Option<&'a mut [f32]>,
+            acc: &'a mut [Lane],
+        }
+        impl LaneFn<()> for Run<'_> {
+            #[inline(always)]
+            fn call<O: LaneOps>(self, o: O) {
+                self.bank.process_inner(o, self.out, self.centre, self.acc)
+            }
+        }
+        dispatch(Run { bank: self, out, centre, acc })
     }
 
     #[inline(always)]
-    fn process_inner(&mut self, out: &mut [f32], mut centre: Option<&mut [f32]>, acc: &mut [Lane]) {
+    fn process_inner<O: LaneOps>(&mut self, o: O, out: &mut [f32], mut centre: Option<&mut [f32]>, acc: &mut [Lane]) {
         let mut i = 0;
         while i < out.len() {
             let to_check = (SLEEP_CHECK - self.clock % SLEEP_CHECK) as usize;
             let end = out.len().min(i + to_check);
             if self.stressed {
-                self.process_stressed(&mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]));
+                self.process_stressed(o, &mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]));
             } else if self.coupled {
-                self.process_coupled(&mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]));
+                self.process_coupled(o, &mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]));
                 self.process_segment(&mut out[i..end], None, acc, self.coupled_chunks);
             } else {
                 self.process_segment(&mut out[i..end], centre.as_deref_mut().map(|c| &mut c[i..end]), acc, 0);
@@ -312,10 +324,11 @@ impl Bank {
     /// (the stretch of one sample pulls on the next); back to [`Bank::process_segment`] once
     /// the stretch has fallen below [`STRETCH_OFF`] for a whole segment.
     #[inline(always)]
-    fn process_coupled(&mut self, out: &mut [f32], mut centre: Option<&mut [f32]>) {
+    fn process_coupled<O: LaneOps>(&mut self, o: O, out: &mut [f32], mut centre: Option<&mut [f32]>) {
         let mut stretch = self.stretch;
         let mut most = 0.0f32;
-        for (s, o) in out.iter_mut().enumerate() {
+        for (s, sample) in out.iter_mut().enumerate() {
+            // Whole lanes by value, as in `Stress::step`.
             let mut acc = [0.0f32; LANES];
             let mut next = [0.0f32; LANES];
             let mut mid = 0.0f32;
@@ -323,22 +336,20 @@ impl Bank {
                 if !self.active[c] {
                     continue;
                 }
-                let (a1, a2, g) = (&self.a1[c], &self.a2[c], &self.gain[c]);
-                let (w, k) = (&self.stretch_w[c], &self.stretch_c[c]);
-                let (y1, y2) = (&mut self.y1[c], &mut self.y2[c]);
-                let mut y = [0.0f32; LANES];
-                for l in 0..LANES {
-                    y[l] = a1[l] * y1[l] - a2[l] * y2[l] - stretch * k[l] * y1[l];
-                    acc[l] += g[l] * y[l];
-                    next[l] += w[l] * y[l] * y[l];
-                }
-                *y2 = *y1;
-                *y1 = y;
+                let (y1, y2) = (self.y1[c], self.y2[c]);
+                let y = o.sub(
+                    o.sub(o.mul(self.a1[c], y1), o.mul(self.a2[c], y2)),
+                    o.mul(o.mul(o.splat(stretch), self.stretch_c[c]), y1),
+                );
+                acc = o.add(acc, o.mul(self.gain[c], y));
+                next = o.add(next, o.mul(o.mul(self.stretch_w[c], y), y));
+                self.y2[c] = y1;
+                self.y1[c] = y;
                 if c == 0 && centre.is_some() {
                     mid = (0..LANES).map(|l| self.centre[l] * y[l]).sum();
                 }
             }
-            *o += acc.iter().sum::<f32>();
+            *sample += acc.iter().sum::<f32>();
             if let Some(centre) = centre.as_deref_mut() {
                 centre[s] = mid;
             }
@@ -351,14 +362,14 @@ impl Bank {
 
     /// Every chunk a sample at a time, coupled through the plate's stress.
     #[inline(always)]
-    fn process_stressed(&mut self, out: &mut [f32], mut centre: Option<&mut [f32]>) {
+    fn process_stressed<O: LaneOps>(&mut self, o: O, out: &mut [f32], mut centre: Option<&mut [f32]>) {
         let Some(stress) = self.stress.as_mut() else {
             return;
         };
         let mut most = 0.0f32;
-        for (s, o) in out.iter_mut().enumerate() {
-            let (sum, level) = stress.step(&self.a1, &self.a2, &self.gain, &mut self.y1, &mut self.y2);
-            *o += sum;
+        for (s, sample) in out.iter_mut().enumerate() {
+            let (sum, level) = stress.step(o, &self.a1, &self.a2, &self.gain, &mut self.y1, &mut self.y2);
+            *sample += sum;
             most = most.max(level);
             if let Some(centre) = centre.as_deref_mut() {
                 centre[s] = (0..LANES).map(|l| self.centre[l] * self.y1[0][l]).sum();

@@ -29,29 +29,51 @@ impl Default for EngineSettings {
 pub const CEILING: f32 = 0.944;
 
 pub struct Engine {
-    voices: Vec<Voice>,
-    pans: Vec<(f32, f32)>,
+    pub(super) voices: Vec<Voice>,
+    pub(super) pans: Vec<(f32, f32)>,
     /// Pending events, latest first (so the next one pops from the end).
-    queue: Vec<SoundEvent>,
-    time: u64,
-    max_block: usize,
+    pub(super) queue: Vec<SoundEvent>,
+    pub(super) time: u64,
+    pub(super) max_block: usize,
     mono: Vec<f32>,
     acc: Vec<Lane>,
-    limiter: Limiter,
+    pub(super) limiter: Limiter,
     dropped: u64,
     /// Per piece: the last block's stem, and its delay line (`with_stems`; empty without).
-    stems: Vec<Box<[f32]>>,
+    pub(super) stems: Vec<Box<[f32]>>,
     stem_delays: Vec<Box<[f32]>>,
     /// Where the next sample enters the stems' delay lines.
     stem_slot: usize,
     /// Frames of the last block.
-    last_block: usize,
+    pub(super) last_block: usize,
+}
+
+/// Every piece's voice, built on every core (a membrane's Bessel zeros and a plate's modes
+/// take tens of milliseconds each), in the kit's order.
+fn build_voices(kit: &Kit, sample_rate_hz: f32, max_block: usize) -> Vec<Voice> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, kit.pieces.len().max(1));
+    let build = |t: usize| -> Vec<(usize, Voice)> {
+        (t..kit.pieces.len())
+            .step_by(threads)
+            .map(|i| (i, Voice::new(&kit.pieces[i], sample_rate_hz, max_block)))
+            .collect()
+    };
+    let mut built: Vec<(usize, Voice)> = std::thread::scope(|s| {
+        let others: Vec<_> = (1..threads).map(|t| s.spawn(move || build(t))).collect();
+        let mut all = build(0);
+        for h in others {
+            all.extend(h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
+        }
+        all
+    });
+    built.sort_by_key(|(i, _)| *i);
+    built.into_iter().map(|(_, v)| v).collect()
 }
 
 impl Engine {
     pub fn new(kit: &Kit, settings: EngineSettings) -> Engine {
         let max_block = settings.max_block.max(1);
-        let voices: Vec<Voice> = kit.pieces.iter().map(|p| Voice::new(p, settings.sample_rate_hz, max_block)).collect();
+        let voices = build_voices(kit, settings.sample_rate_hz, max_block);
         // Drummer's view: pieces to the drummer's right sound on the right.
         let pans = kit
             .pieces

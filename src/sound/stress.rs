@@ -25,6 +25,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::bank::{Lane, LANES};
+use super::lanes::LaneOps;
 use crate::rng::Rng;
 
 /// Stress channels (rank-two forms).
@@ -168,25 +169,33 @@ impl Stress {
     }
 
     /// One sample of every chunk, coupled: y = a1 y1 - a2 y2 - d F with F the stress force
-    /// of the step; returns the sample's output (gains `gain`) and the new level.
+    /// of the step; returns the sample's output (gains `gain`) and the new level. The new
+    /// displacements are written over the oldest and the two vectors swapped (no copy).
     #[inline(always)]
-    pub fn step(&mut self, a1: &[Lane], a2: &[Lane], gain: &[Lane], y1: &mut [Lane], y2: &mut [Lane]) -> (f32, f32) {
+    #[allow(clippy::ptr_arg)] // swapped whole
+    pub fn step<O: LaneOps>(
+        &mut self,
+        o: O,
+        a1: &[Lane],
+        a2: &[Lane],
+        gain: &[Lane],
+        y1: &mut Vec<Lane>,
+        y2: &mut Vec<Lane>,
+    ) -> (f32, f32) {
         // The free step and its forms.
-        // Whole lanes at a time, each channel's sums in registers (a lane loop over the
-        // channels gathered scalars and kept the sums on the stack: 4x slower).
-        let mut ar = [[[0.0f32; LANES]; 2]; CHANNELS];
+        // Whole lanes at a time, by value, each channel's sums in registers (a lane loop over
+        // the channels gathered scalars and kept the sums on the stack: 4x slower).
+        let mut sa = [[0.0f32; LANES]; CHANNELS];
+        let mut sb = [[0.0f32; LANES]; CHANNELS];
         for (c, w) in self.chunks.iter().enumerate() {
-            let (p1, p2, q1, q2) = (&a1[c], &a2[c], &y1[c], &y2[c]);
-            let r: Lane = std::array::from_fn(|l| p1[l] * q1[l] - p2[l] * q2[l]);
+            let r = o.sub(o.mul(a1[c], y1[c]), o.mul(a2[c], y2[c]));
             self.free[c] = r;
             for s in 0..CHANNELS {
-                let [sa, sb] = &mut ar[s];
-                for l in 0..LANES {
-                    sa[l] += w.a[s][l] * r[l];
-                    sb[l] += w.b[s][l] * r[l];
-                }
+                sa[s] = o.add(sa[s], o.mul(w.a[s], r));
+                sb[s] = o.add(sb[s], o.mul(w.b[s], r));
             }
         }
+        let ar: [[Lane; 2]; CHANNELS] = std::array::from_fn(|s| [sa[s], sb[s]]);
         let ar = ar.map(|[a, b]| [a.iter().sum::<f32>(), b.iter().sum::<f32>()]);
         // The force is -kappa mu(eta) g_s with g_s = a_s B_s + b_s A_s and mu(eta) the mean
         // of the half steps' stresses, eta^(n+1/2) = (g_s . y) / 2: with z_s = g_s . y the
@@ -229,19 +238,15 @@ impl Stress {
         let cb: [f32; CHANNELS] = std::array::from_fn(|s| coef[s] * lam(s)[1]);
         let mut acc = [0.0f32; LANES];
         for (c, w) in self.chunks.iter().enumerate() {
-            let r = &self.free[c];
-            let mut y = [0.0f32; LANES];
-            for l in 0..LANES {
-                let mut f = 0.0;
-                for s in 0..CHANNELS {
-                    f += ca[s] * w.fa[s][l] + cb[s] * w.fb[s][l];
-                }
-                y[l] = r[l] - f;
-                acc[l] += gain[c][l] * y[l];
+            let mut f = [0.0f32; LANES];
+            for s in 0..CHANNELS {
+                f = o.add(f, o.add(o.mul(o.splat(ca[s]), w.fa[s]), o.mul(o.splat(cb[s]), w.fb[s])));
             }
-            y2[c] = y1[c];
-            y1[c] = y;
+            let y = o.sub(self.free[c], f);
+            acc = o.add(acc, o.mul(gain[c], y));
+            y2[c] = y;
         }
+        std::mem::swap(y1, y2);
         // The new forms without a pass: u_i . y = u_i . r - sum_s (ca_s P_i,2s + cb_s P_i,2s+1).
         let mut level = 0.0;
         let mut next = [[0.0f32; 2]; CHANNELS];
@@ -364,7 +369,7 @@ mod tests {
         let gain = vec![[1.0; LANES]; MODES / LANES];
         let mut most: f64 = 0.0;
         for _ in 0..samples {
-            let (out, _) = stress.step(&a1, &a2, &gain, &mut y1, &mut y2);
+            let (out, _) = stress.step(crate::sound::lanes::Portable, &a1, &a2, &gain, &mut y1, &mut y2);
             assert!(out.is_finite());
             most = most.max(energies(&y1, &y2, &freq, &mass).iter().sum::<f64>() + stress.energy_j());
         }
