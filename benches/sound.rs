@@ -6,11 +6,13 @@
 //! - "stressed plate": the same bank of 1,024 modes running coupled through a plate's in-plane
 //!   stress ([`Stress`]), as a cymbal does after a hard hit.
 //! - "render 60 s": a 60-second Groove MIDI beat scored and rendered in direct mode through the
-//!   functions `drumsim render` uses, into a sink that only checks the samples.
+//!   functions `drumsim render` uses, into a sink that only checks the samples: with the
+//!   voices on every core (as `drumsim render` runs) and on one (`DRUMSIM_THREADS=1`).
 //! - "one strike": the Hertz contact of one snare and one crash strike.
 //!
 //! `cargo bench --bench sound` ends with a summary: ns per mode-sample, the ratio to the naive
-//! reference, and the render's real-time factor (audio seconds per wall second, one core).
+//! reference, and the render's real-time factor (audio seconds per wall second) on every core
+//! and on one.
 
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput};
@@ -213,6 +215,12 @@ fn render_60s(c: &mut Criterion) -> Option<f64> {
     group.bench_function("direct", |b| {
         b.iter_custom(|iters| timed("render", iters, || _ = black_box(render_song(&kit, &map, &song))))
     });
+    // The same on one core. The bench sets the variable before its own render threads run.
+    std::env::set_var("DRUMSIM_THREADS", "1");
+    group.bench_function("direct, one core", |b| {
+        b.iter_custom(|iters| timed("render1", iters, || _ = black_box(render_song(&kit, &map, &song))))
+    });
+    std::env::remove_var("DRUMSIM_THREADS");
     group.finish();
     Some(audio_s)
 }
@@ -264,7 +272,14 @@ fn summary(audio_s: Option<f64>) {
         );
     }
     if let (Some(audio_s), Some(wall)) = (audio_s, median_s("render")) {
-        println!("render 60 s ({SONG}): {audio_s:.1} s of audio in {wall:.3} s, {:.0}x real time", audio_s / wall);
+        let cores = drumsim::render::render_threads();
+        println!(
+            "render 60 s ({SONG}): {audio_s:.1} s of audio in {wall:.3} s, {:.0}x real time ({cores} cores)",
+            audio_s / wall
+        );
+    }
+    if let (Some(audio_s), Some(wall)) = (audio_s, median_s("render1")) {
+        println!("render 60 s, one core: {audio_s:.1} s of audio in {wall:.3} s, {:.0}x real time", audio_s / wall);
     }
     for id in ["snare", "crash", "kick"] {
         if let Some(s) = median_s(&format!("strike/{id}")) {
