@@ -366,6 +366,8 @@ impl Bank {
         let Some(stress) = self.stress.as_mut() else {
             return;
         };
+        // A strike or a damping change may have come since the last step.
+        stress.prime(o, &self.a1, &self.a2, &self.y1, &self.y2);
         let mut most = 0.0f32;
         for (s, sample) in out.iter_mut().enumerate() {
             let (sum, level) = stress.step(o, &self.a1, &self.a2, &self.gain, &mut self.y1, &mut self.y2);

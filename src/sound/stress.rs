@@ -42,9 +42,8 @@ struct ChunkWeights {
     /// Weights of each mode's displacement in A_s and B_s.
     a: [Lane; CHANNELS],
     b: [Lane; CHANNELS],
-    /// ... times d_k, the change of its next displacement per unit of force.
-    fa: [Lane; CHANNELS],
-    fb: [Lane; CHANNELS],
+    /// d_k, the change of each mode's next displacement per unit of force.
+    d: Lane,
 }
 
 /// The stress channels of one plate and their state.
@@ -59,8 +58,10 @@ pub struct Stress {
     /// A_s and B_s of the last sample, and the stress of the half step before it.
     ab: [[f32; 2]; CHANNELS],
     eta: [f32; CHANNELS],
-    /// Each mode's free step a1 y1 - a2 y2 of the sample under way.
+    /// Each mode's free step a1 y1 - a2 y2 of the next sample, and its forms (A_s and B_s
+    /// of it), left by the last step or by [`Stress::prime`].
     free: Vec<Lane>,
+    free_forms: [[f32; 2]; CHANNELS],
 }
 
 impl Stress {
@@ -81,12 +82,7 @@ impl Stress {
         // on average, Berger's stretch / 4 slope2^2 q^4.
         let kappa = stretch / (2.0 * CHANNELS as f64);
         let mut rng = Rng::new(seed);
-        let zero = ChunkWeights {
-            a: [[0.0; LANES]; CHANNELS],
-            b: [[0.0; LANES]; CHANNELS],
-            fa: [[0.0; LANES]; CHANNELS],
-            fb: [[0.0; LANES]; CHANNELS],
-        };
+        let zero = ChunkWeights { a: [[0.0; LANES]; CHANNELS], b: [[0.0; LANES]; CHANNELS], d: [0.0; LANES] };
         let mut chunks = vec![zero; n.div_ceil(LANES)];
         let mut p = [[0.0f64; 2 * CHANNELS]; 2 * CHANNELS];
         let mut most: f64 = 0.0;
@@ -103,9 +99,8 @@ impl Stress {
                 let (a, b) = (u[2 * s], u[2 * s + 1]);
                 chunks[c].a[s][l] = a as f32;
                 chunks[c].b[s][l] = b as f32;
-                chunks[c].fa[s][l] = (d * a) as f32;
-                chunks[c].fb[s][l] = (d * b) as f32;
             }
+            chunks[c].d[l] = d as f32;
             for i in 0..2 * CHANNELS {
                 for j in 0..2 * CHANNELS {
                     p[i][j] += d * u[i] * u[j];
@@ -124,6 +119,7 @@ impl Stress {
             ab: [[0.0; 2]; CHANNELS],
             eta: [0.0; CHANNELS],
             free: vec![[0.0; LANES]; n.div_ceil(LANES)],
+            free_forms: [[0.0; 2]; CHANNELS],
         }
     }
 
@@ -168,9 +164,29 @@ impl Stress {
         self.off
     }
 
+    /// The free step of the next sample from the last two displacements and the recursion's
+    /// coefficients; before the first [`Stress::step`] of a run and whenever either may have
+    /// changed since the last step (a strike, a damping change).
+    #[inline(always)]
+    pub fn prime<O: LaneOps>(&mut self, o: O, a1: &[Lane], a2: &[Lane], y1: &[Lane], y2: &[Lane]) {
+        let mut sa = [[0.0f32; LANES]; CHANNELS];
+        let mut sb = [[0.0f32; LANES]; CHANNELS];
+        for (c, w) in self.chunks.iter().enumerate() {
+            let r = o.sub(o.mul(a1[c], y1[c]), o.mul(a2[c], y2[c]));
+            self.free[c] = r;
+            for s in 0..CHANNELS {
+                sa[s] = o.add(sa[s], o.mul(w.a[s], r));
+                sb[s] = o.add(sb[s], o.mul(w.b[s], r));
+            }
+        }
+        self.free_forms = std::array::from_fn(|s| [sa[s].iter().sum(), sb[s].iter().sum()]);
+    }
+
     /// One sample of every chunk, coupled: y = a1 y1 - a2 y2 - d F with F the stress force
     /// of the step; returns the sample's output (gains `gain`) and the new level. The new
-    /// displacements are written over the oldest and the two vectors swapped (no copy).
+    /// displacements are written over the oldest and the two vectors swapped (no copy). One
+    /// pass over the modes: the free step of the sample after is taken on the way (the
+    /// weights are read once a sample; memory, not arithmetic, bounds this loop).
     #[inline(always)]
     #[allow(clippy::ptr_arg)] // swapped whole
     pub fn step<O: LaneOps>(
@@ -182,21 +198,7 @@ impl Stress {
         y1: &mut Vec<Lane>,
         y2: &mut Vec<Lane>,
     ) -> (f32, f32) {
-        // The free step and its forms.
-        // Whole lanes at a time, by value, each channel's sums in registers (a lane loop over
-        // the channels gathered scalars and kept the sums on the stack: 4x slower).
-        let mut sa = [[0.0f32; LANES]; CHANNELS];
-        let mut sb = [[0.0f32; LANES]; CHANNELS];
-        for (c, w) in self.chunks.iter().enumerate() {
-            let r = o.sub(o.mul(a1[c], y1[c]), o.mul(a2[c], y2[c]));
-            self.free[c] = r;
-            for s in 0..CHANNELS {
-                sa[s] = o.add(sa[s], o.mul(w.a[s], r));
-                sb[s] = o.add(sb[s], o.mul(w.b[s], r));
-            }
-        }
-        let ar: [[Lane; 2]; CHANNELS] = std::array::from_fn(|s| [sa[s], sb[s]]);
-        let ar = ar.map(|[a, b]| [a.iter().sum::<f32>(), b.iter().sum::<f32>()]);
+        let ar = self.free_forms;
         // The force is -kappa mu(eta) g_s with g_s = a_s B_s + b_s A_s and mu(eta) the mean
         // of the half steps' stresses, eta^(n+1/2) = (g_s . y) / 2: with z_s = g_s . y the
         // system (I + kappa / 4 G) z = g . r - kappa / 2 G eta^(n-1/2), G_ts = g_t^T D g_s.
@@ -233,20 +235,30 @@ impl Stress {
                 coef[s] = 0.0;
             }
         }
-        // The step: y = r - D sum_s coef_s g_s.
+        // The step, y = r - D sum_s coef_s g_s, and the next sample's free step
+        // a1 y - a2 y1 with its forms, whole lanes by value (sums in registers).
         let ca: [f32; CHANNELS] = std::array::from_fn(|s| coef[s] * lam(s)[0]);
         let cb: [f32; CHANNELS] = std::array::from_fn(|s| coef[s] * lam(s)[1]);
         let mut acc = [0.0f32; LANES];
+        let mut sa = [[0.0f32; LANES]; CHANNELS];
+        let mut sb = [[0.0f32; LANES]; CHANNELS];
         for (c, w) in self.chunks.iter().enumerate() {
             let mut f = [0.0f32; LANES];
             for s in 0..CHANNELS {
-                f = o.add(f, o.add(o.mul(o.splat(ca[s]), w.fa[s]), o.mul(o.splat(cb[s]), w.fb[s])));
+                f = o.add(f, o.add(o.mul(o.splat(ca[s]), w.a[s]), o.mul(o.splat(cb[s]), w.b[s])));
             }
-            let y = o.sub(self.free[c], f);
+            let y = o.sub(self.free[c], o.mul(w.d, f));
             acc = o.add(acc, o.mul(gain[c], y));
+            let r = o.sub(o.mul(a1[c], y), o.mul(a2[c], y1[c]));
+            self.free[c] = r;
+            for s in 0..CHANNELS {
+                sa[s] = o.add(sa[s], o.mul(w.a[s], r));
+                sb[s] = o.add(sb[s], o.mul(w.b[s], r));
+            }
             y2[c] = y;
         }
         std::mem::swap(y1, y2);
+        self.free_forms = std::array::from_fn(|s| [sa[s].iter().sum(), sb[s].iter().sum()]);
         // The new forms without a pass: u_i . y = u_i . r - sum_s (ca_s P_i,2s + cb_s P_i,2s+1).
         let mut level = 0.0;
         let mut next = [[0.0f32; 2]; CHANNELS];
@@ -269,6 +281,8 @@ impl Stress {
                 (*a, *b) = ([0.0; LANES], [0.0; LANES]);
             }
             (self.ab, self.eta) = ([[0.0; 2]; CHANNELS], [0.0; CHANNELS]);
+            self.free.fill([0.0; LANES]);
+            self.free_forms = [[0.0; 2]; CHANNELS];
             return (0.0, 0.0);
         }
         (acc.iter().sum(), level)
@@ -364,6 +378,7 @@ mod tests {
         let (mut stress, a1, a2, mut y1, mut y2, freq, mass) = plate(stretch, amp);
         let coupled = stress.wake(&y1, &y2);
         assert_eq!(coupled, stretch > 0.0);
+        stress.prime(crate::sound::lanes::Portable, &a1, &a2, &y1, &y2);
         let before = energies(&y1, &y2, &freq, &mass);
         let e0 = before.iter().sum::<f64>() + stress.energy_j();
         let gain = vec![[1.0; LANES]; MODES / LANES];
