@@ -272,7 +272,7 @@ fn summary(audio_s: Option<f64>) {
         );
     }
     if let (Some(audio_s), Some(wall)) = (audio_s, median_s("render")) {
-        let cores = drumsim::render::render_threads();
+        let cores = drumsim::sound::offline::threads();
         println!(
             "render 60 s ({SONG}): {audio_s:.1} s of audio in {wall:.3} s, {:.0}x real time ({cores} cores)",
             audio_s / wall

@@ -578,16 +578,6 @@ pub fn score_physical(
     Ok((carrier.finish(perf.notes_end_s), summary))
 }
 
-/// Threads an offline render gives its voices: `DRUMSIM_THREADS` if set (1: the calling
-/// thread alone), else every core. The samples are the same whatever the number.
-pub fn render_threads() -> usize {
-    std::env::var("DRUMSIM_THREADS")
-        .ok()
-        .and_then(|v| v.trim().parse::<usize>().ok())
-        .filter(|n| *n > 0)
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-}
-
 /// Render sound events to stereo blocks handed to `sink`, starting at the events' time zero
 /// (the limiter's delay is removed). Stops after the last event once all is silent, or after
 /// [`MAX_TAIL_S`]. Returns the number of samples rendered and the engine's NaN count.
@@ -602,8 +592,8 @@ pub fn render_events(
     // busiest window of the song (4,097 notes at one instant are one window's).
     let window = (WINDOW_BLOCKS * BLOCK) as u64;
     let mut busiest = 0usize;
-    for block in events.chunk_by(|a, b| a.at_sample / window == b.at_sample / window) {
-        busiest = busiest.max(block.len());
+    for in_window in events.chunk_by(|a, b| a.at_sample / window == b.at_sample / window) {
+        busiest = busiest.max(in_window.len());
     }
     let event_capacity = busiest.max(4096);
     let settings = EngineSettings { sample_rate_hz: SAMPLE_RATE_HZ as f32, max_block: BLOCK, event_capacity };
@@ -614,7 +604,7 @@ pub fn render_events(
     let end_max = end_min + (MAX_TAIL_S * SAMPLE_RATE_HZ as f64) as u64;
     // Windows of blocks, the voices of each on every core (`Engine::process_parallel`: the
     // same samples as one block at a time on one).
-    let threads = render_threads();
+    let threads = crate::sound::offline::threads();
     let frames = WINDOW_BLOCKS * BLOCK;
     let (mut left, mut right) = (vec![0.0f32; frames], vec![0.0f32; frames]);
     let mut silent = vec![false; WINDOW_BLOCKS];

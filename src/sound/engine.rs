@@ -51,7 +51,7 @@ pub struct Engine {
 /// Every piece's voice, built on every core (a membrane's Bessel zeros and a plate's modes
 /// take tens of milliseconds each), in the kit's order.
 fn build_voices(kit: &Kit, sample_rate_hz: f32, max_block: usize) -> Vec<Voice> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, kit.pieces.len().max(1));
+    let threads = super::offline::threads().clamp(1, kit.pieces.len().max(1));
     let build = |t: usize| -> Vec<(usize, Voice)> {
         (t..kit.pieces.len())
             .step_by(threads)

@@ -11,6 +11,16 @@ use super::bank::{Lane, LANES};
 use super::denormals::with_flush_to_zero;
 use super::engine::Engine;
 use super::voice::Voice;
+
+/// Threads an offline render and the engine's set-up use: `DRUMSIM_THREADS` if set (1: the
+/// calling thread alone), else every core. The samples are the same whatever the number.
+pub fn threads() -> usize {
+    std::env::var("DRUMSIM_THREADS")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .filter(|n| *n > 0)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
 use super::SoundEventKind;
 
 /// One voice's share of a window: its events (sample offset in the window, what), its
@@ -42,14 +52,14 @@ impl Engine {
             .iter_mut()
             .map(|voice| Part { voice, events: Vec::new(), out: vec![0.0; n], silent: vec![true; blocks] })
             .collect();
-        let mut last_due = vec![0usize; blocks];
+        let mut due_in_block = vec![0usize; blocks];
         while let Some(ev) = self.queue.last() {
             if ev.at_sample >= start + n as u64 {
                 break;
             }
             let ev = self.queue.pop().expect("queue has a last event");
             let at = ev.at_sample.saturating_sub(start) as usize;
-            last_due[at / block] += 1;
+            due_in_block[at / block] += 1;
             match ev.kind {
                 SoundEventKind::Strike(s) => {
                     parts.get_mut(s.piece).into_iter().for_each(|p| p.events.push((at, ev.kind)))
@@ -96,7 +106,7 @@ impl Engine {
         // The mix, the limiter and the silence, block by block.
         left.fill(0.0);
         right.fill(0.0);
-        let mut due_later = last_due.iter().sum::<usize>();
+        let mut due_later = due_in_block.iter().sum::<usize>();
         for b in 0..blocks {
             let range = b * block..((b + 1) * block).min(n);
             for (part, &(gl, gr)) in parts.iter().zip(self.pans.iter()) {
@@ -107,7 +117,7 @@ impl Engine {
                 }
             }
             self.limiter.process(&mut left[range.clone()], &mut right[range]);
-            due_later -= last_due[b];
+            due_later -= due_in_block[b];
             silent[b] = !pending_after && due_later == 0 && parts.iter().all(|p| p.silent[b]);
         }
         self.last_block = n - (blocks - 1) * block;
